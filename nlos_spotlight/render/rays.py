@@ -1,0 +1,150 @@
+"""Ray casting through Embree (embreex): first hits and shadow rays.
+
+All visibility in the renderer comes from here; there is no Python-level BVH
+or per-ray loop. Embree works in float32, so shadow-ray end points are pulled
+in by a relative epsilon and origins are pushed off their surface.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+EPS = 1e-4
+"""Offset (m) of shadow-ray origins and ends from their surfaces."""
+CHUNK = 1 << 22
+"""Rays per Embree call; bounds temporary memory."""
+
+
+@dataclass
+class Hits:
+    """First-hit records for N rays."""
+
+    hit: np.ndarray
+    """(N,) bool, the ray hit a triangle."""
+    t: np.ndarray
+    """(N,) float64 distance along the (unit) direction; inf on a miss."""
+    face: np.ndarray
+    """(N,) int64 triangle index (-1 on a miss)."""
+    bary: np.ndarray
+    """(N, 3) float64 barycentric weights of the three vertices."""
+
+
+class RayEngine:
+    """An Embree scene over one triangle soup (vertices (V,3), faces (F,3))."""
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray):
+        from embreex import rtcore_scene
+        from embreex.mesh_construction import TriangleMesh
+
+        self.vertices = np.asarray(vertices, dtype=np.float64)
+        self.faces = np.asarray(faces, dtype=np.int64)
+        self._scene = rtcore_scene.EmbreeScene()
+        tris = self.vertices[self.faces].astype(np.float32)
+        TriangleMesh(self._scene, tris)  # registers itself in the scene
+
+    def first_hit(self, origins: np.ndarray, directions: np.ndarray) -> Hits:
+        """Closest hit along each unit direction."""
+        n = len(origins)
+        t = np.full(n, np.inf)
+        face = np.full(n, -1, dtype=np.int64)
+        bary = np.zeros((n, 3))
+        for s in range(0, n, CHUNK):
+            sl = slice(s, s + CHUNK)
+            r = self._scene.run(np.ascontiguousarray(origins[sl], dtype=np.float32),
+                                np.ascontiguousarray(directions[sl], dtype=np.float32), output=1)
+            prim = r["primID"].astype(np.int64)
+            ok = prim >= 0
+            face[sl] = prim
+            t[sl] = np.where(ok, r["tfar"], np.inf)
+            u, v = r["u"].astype(np.float64), r["v"].astype(np.float64)
+            bary[sl] = np.where(ok[:, None], np.stack([1 - u - v, u, v], axis=1), 0.0)
+        hit = face >= 0
+        # Recompute t in float64 from the triangle plane: Embree's float32 t is too coarse for shading.
+        if hit.any():
+            p = self.surface_point(face[hit], bary[hit])
+            t[hit] = np.einsum("ij,ij->i", p - origins[hit], directions[hit])
+        return Hits(hit, t, face, bary)
+
+    def surface_point(self, face: np.ndarray, bary: np.ndarray) -> np.ndarray:
+        tri = self.vertices[self.faces[face]]
+        return np.einsum("ij,ijk->ik", bary, tri)
+
+    def occluded(self, a: np.ndarray, b: np.ndarray, normal_a: np.ndarray | None = None,
+                 normal_b: np.ndarray | None = None) -> np.ndarray:
+        """(N,) bool: something blocks the open segment a->b.
+
+        Surface points are offset along their normals toward the other end so
+        that a segment never hits the triangle it starts or ends on.
+        """
+        a = _offset(a, b, normal_a)
+        b = _offset(b, a, normal_b)
+        d = b - a
+        length = np.linalg.norm(d, axis=1)
+        d = d / np.maximum(length, 1e-30)[:, None]
+        return self.occluded_rays(a, d, np.maximum(length - EPS, 0.0))
+
+    def occluded_rays(self, origins: np.ndarray, dirs: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+        """(N,) bool: a triangle lies within ``lengths`` along each unit direction."""
+        out = np.zeros(len(origins), dtype=bool)
+        for s in range(0, len(origins), CHUNK):
+            sl = slice(s, s + CHUNK)
+            r = self._scene.run(np.ascontiguousarray(origins[sl], dtype=np.float32),
+                                np.ascontiguousarray(dirs[sl], dtype=np.float32), query="OCCLUDED",
+                                dists=np.ascontiguousarray(lengths[sl], dtype=np.float32))
+            out[sl] = r >= 0
+        return out
+
+
+def _offset(p: np.ndarray, toward: np.ndarray, normal: np.ndarray | None) -> np.ndarray:
+    d = toward - p
+    d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-30)
+    if normal is None:
+        return p + EPS * d
+    side = np.sign(np.einsum("ij,ij->i", normal, d))[:, None]
+    return p + EPS * (side * normal + d)
+
+
+def pair_rays(pa, na, pb, nb, dir_ab, cos_a, cos_b):
+    """Shadow rays for all (a_i, b_j) pairs from torch pair geometry (see ``kernels.pair_geometry``).
+
+    Returns float32 numpy origins (Na*Nb, 3), unit directions and lengths, each end pushed
+    off its surface toward the other end; built in torch because this runs per person.
+    """
+    import torch
+
+    with torch.no_grad():
+        sa = torch.sign(cos_a).unsqueeze(-1)
+        sb = torch.sign(cos_b).unsqueeze(-1)
+        o = pa.unsqueeze(1) + EPS * (sa * na.unsqueeze(1) + dir_ab)
+        e = pb.unsqueeze(0) + EPS * (sb * nb.unsqueeze(0) - dir_ab)
+        d = (e - o).float().reshape(-1, 3)
+        length = d.norm(dim=1)
+        d = d / length.clamp(min=1e-30).unsqueeze(1)
+        return (o.float().reshape(-1, 3).cpu().numpy(), d.cpu().numpy(),
+                (length - EPS).clamp(min=0).cpu().numpy())
+
+
+class SceneRays:
+    """Static geometry plus, optionally, a person: visibility through both."""
+
+    def __init__(self, static: RayEngine, person: RayEngine | None = None):
+        self.static = static
+        self.person = person
+
+    def occluded_rays(self, origins: np.ndarray, dirs: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+        """(N,) bool for prepared float32 rays (see :func:`pair_rays`)."""
+        occ = self.static.occluded_rays(origins, dirs, lengths)
+        if self.person is not None:
+            live = np.flatnonzero(~occ)
+            occ[live] = self.person.occluded_rays(origins[live], dirs[live], lengths[live])
+        return occ
+
+    def occluded(self, a, b, normal_a=None, normal_b=None) -> np.ndarray:
+        occ = self.static.occluded(a, b, normal_a, normal_b)
+        if self.person is not None:
+            live = ~occ
+            occ[live] = self.person.occluded(a[live], b[live], None if normal_a is None else normal_a[live],
+                                             None if normal_b is None else normal_b[live])
+        return occ

@@ -1,0 +1,349 @@
+"""The light-transport renderer (DESIGN section 5).
+
+``image(y) = D y + A (B (E y)) + ambient + nlos_ambient``
+
+* ``E``: per candidate spot t, K projector rays inside the cutoff cone land on
+  LOS samples x_s carrying flux I f(theta) dOmega (see :mod:`.spot`).
+* ``D``: direct image per candidate, from the exact spot irradiance at every
+  camera sub-sample, with projector visibility.
+* ``B``: LOS samples -> outgoing radiance of each person sample (two sides).
+* ``A``: person samples -> camera sub-samples -> pixel means.
+
+Everything after the ray casts is torch, so the images are exactly linear in
+y and differentiable with respect to y and the person's translation (the
+visibility masks are held fixed, as in any renderer without edge sampling).
+Visibility is Embree: static geometry plus the posed body, so limbs occlude
+too. The person is assumed outside the camera's and the projector's direct
+view (the NLOS setting): it shapes the ``nlos`` and ``nlos_ambient`` terms only.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+
+from ..errors import NlosError
+from ..scene.format import Scene
+from .brdf import brdf, ggx_d, smith_g1, COS_EPS
+from .camera import pixel_rays
+from .kernels import pair_geometry
+from .person import Person, as_translation
+from .rays import RayEngine, SceneRays, pair_rays
+from .spot import cone_directions, spot_profile
+from .surface import StaticSurfaces, SurfacePoints
+
+COMPONENTS = ("direct", "interreflection", "ambient", "nlos", "nlos_ambient")
+DEFAULT_COMPONENTS = ("direct", "ambient", "nlos", "nlos_ambient")
+
+
+@dataclass
+class RenderSettings:
+    """Sampling and numerics of :class:`Renderer`."""
+
+    pixel_samples: int = 4
+    """n: n x n stratified sub-samples per pixel for the per-scene terms (direct, ambient, interreflection)."""
+    transport_pixel_samples: int = 2
+    """n x n sub-samples per pixel for person -> pixel transport (the per-person cost)."""
+    spot_samples: int = 64
+    """Projector rays per candidate spot (equal solid angle)."""
+    person_samples: int = 512
+    """Area samples on the body."""
+    chunk: int = 2048
+    """Receiver rows per block in the pair kernels (bounds memory)."""
+    dtype: str = "float32"
+    """torch dtype name for everything after ray casting ('float64' for gradcheck)."""
+    device: str = "auto"
+    """'cpu', 'cuda' or 'auto' (cuda when available)."""
+
+
+@dataclass
+class RenderOutput:
+    """Images per component, each (H, W, 3) or (B, H, W, 3) for a batch of people."""
+
+    components: dict[str, torch.Tensor] = field(default_factory=dict)
+    """Component name -> linear radiance, W sr^-1 m^-2."""
+
+    @property
+    def image(self) -> torch.Tensor:
+        """Sum of the rendered components."""
+        return sum(self.components.values())
+
+    def __getitem__(self, name: str) -> torch.Tensor:
+        return self.components[name]
+
+
+@dataclass
+class _Receivers:
+    """Camera sub-sample hits as torch tensors."""
+
+    pts: dict
+    to_cam: torch.Tensor
+    pixel: torch.Tensor
+    n_sub: int
+    glossy: torch.Tensor
+    surf: SurfacePoints
+
+
+class Renderer:
+    """Per-scene precompute and per-person rendering.
+
+    Args:
+        scene: the scene.
+        settings: sampling settings.
+        aim_points: (T, 3) candidate spot targets; default the static faces' centroids.
+    """
+
+    def __init__(self, scene: Scene, settings: RenderSettings | None = None, aim_points: np.ndarray | None = None):
+        self.scene = scene
+        self.settings = s = settings or RenderSettings()
+        self.device = torch.device("cuda" if s.device == "auto" and torch.cuda.is_available()
+                                   else ("cpu" if s.device == "auto" else s.device))
+        self.dtype = getattr(torch, s.dtype)
+        self.static = StaticSurfaces(scene)
+        self.aim_points = self.static.mesh.centroids() if aim_points is None else np.atleast_2d(aim_points)
+        self.num_spots = len(self.aim_points)
+        cam = scene.camera
+        self.shape = (cam.height, cam.width)
+        self.recv = self._receivers(s.pixel_samples)
+        self.recv_t = self.recv if s.transport_pixel_samples == s.pixel_samples \
+            else self._receivers(s.transport_pixel_samples)
+        self._spot_samples()
+        self.D = self._direct_matrix()
+        self.ambient_image = self._ambient()
+
+    # ---------------------------------------------------------------- precompute
+    def _t(self, x) -> torch.Tensor:
+        return torch.as_tensor(x, device=self.device, dtype=self.dtype)
+
+    def _receivers(self, n: int) -> _Receivers:
+        dirs, origin = pixel_rays(self.scene.camera, n)
+        flat = dirs.reshape(-1, 3)
+        hit, surf = self.static.trace(np.broadcast_to(origin, flat.shape), flat)
+        if not hit.any():
+            raise NlosError("camera: sees no geometry (check position, look_at and fov_deg)")
+        pixel = np.flatnonzero(hit) // (n * n)
+        to_cam = -flat[hit]
+        return _Receivers(surf.torch(self.device, self.dtype), self._t(to_cam),
+                          torch.as_tensor(pixel, device=self.device), n * n, torch.as_tensor(surf.glossy, device=self.device), surf)
+
+    def _spot_samples(self) -> None:
+        """LOS samples x_s of every candidate: where the projector's rays land, and their flux."""
+        pr = self.scene.projector
+        k = self.settings.spot_samples
+        dirs, owner, flux = [], [], []
+        for t, aim in enumerate(self.aim_points):
+            d, theta, domega = cone_directions(aim - pr.position, pr.cutoff_deg, k)
+            prof = spot_profile(theta, pr.beam_width_deg, pr.cutoff_deg)
+            keep = prof > 0
+            dirs.append(d[keep])
+            owner.append(np.full(keep.sum(), t))
+            flux.append(pr.intensity[None, :] * (prof[keep] * domega)[:, None])
+        dirs, owner, flux = np.concatenate(dirs), np.concatenate(owner), np.concatenate(flux)
+        hit, surf = self.static.trace(np.broadcast_to(pr.position, dirs.shape), dirs)
+        self.spot_surf = surf
+        self.spot_pts = surf.torch(self.device, self.dtype)
+        self.spot_owner = torch.as_tensor(owner[hit], device=self.device)
+        self.spot_flux = self._t(flux[hit])
+        to_p = pr.position - surf.pos
+        self.spot_to_proj = self._t(to_p / np.linalg.norm(to_p, axis=1, keepdims=True))
+        self.spot_landed = np.bincount(owner[hit], minlength=self.num_spots) > 0
+        if not self.spot_landed.any():
+            raise NlosError("projector: aimed at nothing (no projector ray reaches a surface)")
+
+    def _direct_matrix(self) -> torch.Tensor:
+        """D: (H*W, T, 3) direct image per unit of each candidate spot."""
+        pr, r = self.scene.projector, self.recv
+        p = r.surf.pos
+        vis = ~self.static.engine.occluded(np.broadcast_to(pr.position, p.shape).copy(), p, None, r.surf.normal)
+        d = pr.position - p
+        dist2 = (d * d).sum(1)
+        wi = self._t(d / np.sqrt(dist2)[:, None])
+        f = brdf(r.pts["normal"], wi, r.to_cam, r.pts["kd"], r.pts["ks"], r.pts["alpha"])
+        cos = (r.pts["normal"] * wi).sum(-1).abs()
+        g = f * (cos * self._t(vis / dist2)).unsqueeze(-1) * self._t(pr.intensity)
+        axes = self.aim_points - pr.position
+        axes = self._t(axes / np.linalg.norm(axes, axis=1, keepdims=True))
+        D = torch.zeros(self.shape[0] * self.shape[1], self.num_spots, 3, device=self.device, dtype=self.dtype)
+        for s in range(0, self.num_spots, 64):
+            cos_t = ((-wi) @ axes[s:s + 64].T).clamp(-1, 1)
+            prof = spot_profile(torch.arccos(cos_t), pr.beam_width_deg, pr.cutoff_deg)
+            D[:, s:s + 64].index_add_(0, r.pixel, g.unsqueeze(1) * prof.unsqueeze(-1) / r.n_sub)
+        return D
+
+    def _ambient(self) -> torch.Tensor:
+        r, amb = self.recv, self.scene.ambient
+        rad = self._t(amb.radiance if amb is not None else np.zeros(3))
+        per = (r.pts["kd"] + r.pts["ks"]) * rad + r.pts["emission"]
+        return self._pixels(per, r)
+
+    def _pixels(self, per_sample: torch.Tensor, r: _Receivers) -> torch.Tensor:
+        out = torch.zeros(self.shape[0] * self.shape[1], per_sample.shape[-1], device=self.device, dtype=self.dtype)
+        out.index_add_(0, r.pixel, per_sample / r.n_sub)
+        return out.reshape(*self.shape, -1)
+
+    # ---------------------------------------------------------------- rendering
+    def spot_vector(self, index: int) -> torch.Tensor:
+        """One-hot y for candidate ``index``."""
+        y = torch.zeros(self.num_spots, device=self.device, dtype=self.dtype)
+        y[index] = 1
+        return y
+
+    def render(self, y: torch.Tensor, person: Person | None = None, translation=None,
+               components=DEFAULT_COMPONENTS) -> RenderOutput:
+        """Render the requested components.
+
+        Args:
+            y: (T,) spot vector (one-hot or a distribution over candidates).
+            person: the sampled body, or None for the empty scene.
+            translation: None, (2|3,) or (B, 2|3) offsets of the body (floor x, y [, z]); a batch
+                dimension B makes every image (B, H, W, 3).
+            components: names from :data:`COMPONENTS`.
+        """
+        unknown = set(components) - set(COMPONENTS)
+        if unknown:
+            raise ValueError(f"unknown component(s): {', '.join(sorted(unknown))}")
+        y = torch.as_tensor(y, device=self.device, dtype=self.dtype)
+        if y.shape != (self.num_spots,):
+            raise ValueError(f"spot vector: expected shape ({self.num_spots},), got {tuple(y.shape)}")
+        batched = translation is not None and torch.as_tensor(translation).dim() == 2
+        out = RenderOutput()
+        if "direct" in components:
+            out.components["direct"] = torch.einsum("ptc,t->pc", self.D, y).reshape(*self.shape, 3)
+        if "interreflection" in components:
+            out.components["interreflection"] = self._interreflection(y)
+        if "ambient" in components:
+            out.components["ambient"] = self.ambient_image
+        want = [c for c in ("nlos", "nlos_ambient") if c in components]
+        if want:
+            per = self._person_terms(y, person, translation, want)
+            out.components.update(per)
+        if batched:
+            b = torch.as_tensor(translation).shape[0]
+            for k, v in out.components.items():
+                if v.dim() == 3:
+                    out.components[k] = v.unsqueeze(0).expand(b, -1, -1, -1)
+        return out
+
+    def _active(self, y: torch.Tensor) -> torch.Tensor:
+        """Indices of spot samples whose candidate matters: all if y needs a gradient, else y's support."""
+        if y.requires_grad:
+            return torch.arange(len(self.spot_owner), device=self.device)
+        return torch.nonzero(y[self.spot_owner] != 0).flatten()
+
+    def _interreflection(self, y: torch.Tensor) -> torch.Tensor:
+        """One LOS-LOS bounce: P -> x_s -> x_p -> C."""
+        idx = self._active(y)
+        r = self.recv
+        src = {k: v[idx] for k, v in self.spot_pts.items()}
+        w = self.spot_flux[idx] * y[self.spot_owner[idx]].unsqueeze(-1)
+        out = torch.zeros(len(r.pixel), 3, device=self.device, dtype=self.dtype)
+        for a in range(0, len(r.pixel), self.settings.chunk):
+            sl = slice(a, a + self.settings.chunk)
+            geo = pair_geometry(src["pos"], src["normal"], r.pts["pos"][sl], r.pts["normal"][sl])
+            vis = self._visible(self.static.engine, src["pos"], src["normal"], r.pts["pos"][sl],
+                                r.pts["normal"][sl], geo)
+            f_src = brdf(src["normal"].unsqueeze(1), self.spot_to_proj[idx].unsqueeze(1), geo.dir_ab,
+                         src["kd"].unsqueeze(1), src["ks"].unsqueeze(1), src["alpha"].unsqueeze(1))
+            f_rec = brdf(r.pts["normal"][sl].unsqueeze(0), -geo.dir_ab, r.to_cam[sl].unsqueeze(0),
+                         r.pts["kd"][sl].unsqueeze(0), r.pts["ks"][sl].unsqueeze(0), r.pts["alpha"][sl].unsqueeze(0))
+            out[sl] = (f_src * f_rec * (geo.g * vis).unsqueeze(-1) * w.unsqueeze(1)).sum(0)
+        return self._pixels(out, r)
+
+    def _visible(self, rays, pa, na, pb, nb, geo) -> torch.Tensor:
+        """(Na, Nb) 0/1 mutual visibility of two point sets (held fixed under autograd)."""
+        occ = rays.occluded_rays(*pair_rays(pa, na, pb, nb, geo.dir_ab, geo.cos_a, geo.cos_b))
+        return self._t(~occ).reshape(geo.cos_a.shape)
+
+    def _person_terms(self, y, person, translation, want) -> dict[str, torch.Tensor]:
+        if person is None:
+            zero = torch.zeros(*self.shape, 3, device=self.device, dtype=self.dtype)
+            return {c: zero for c in want}
+        batched = translation is not None and torch.as_tensor(translation).dim() == 2
+        t = as_translation(translation, torch.as_tensor(translation).shape[0] if batched else 1,
+                           self.device, self.dtype)
+        amb = self.scene.ambient
+        hidden = self._t(amb.hidden_radiance if amb is not None else np.zeros(3))
+        pts = {k: self._t(getattr(person, k)) for k in ("pos", "normal", "area", "albedo")}
+        res = {c: [] for c in want}
+        for b in range(len(t)):
+            img = self._one_person(y, person, pts, t[b], hidden, want)
+            for c in want:
+                res[c].append(img[c])
+        return {c: torch.stack(v) if batched else v[0] for c, v in res.items()}
+
+    def _one_person(self, y, person: Person, pts, t, hidden, want) -> dict[str, torch.Tensor]:
+        t_np = t.detach().cpu().numpy().astype(np.float64)
+        rays = SceneRays(self.static.engine, RayEngine(person.translated_mesh(t_np).vertices, person.mesh.faces))
+        o = pts["pos"] + t
+        radiance = []
+        if "nlos" in want:
+            lf, lb = self._person_radiosity(y, pts, o, rays)
+            radiance.append((lf, lb))
+        if "nlos_ambient" in want:
+            own = (pts["albedo"] - 1) * hidden
+            radiance.append((own, own))
+        front = torch.cat([r[0] for r in radiance], dim=1)
+        back = torch.cat([r[1] for r in radiance], dim=1)
+        img = self._gather(pts, o, rays, front, back)
+        return {c: img[..., 3 * i:3 * i + 3] for i, c in enumerate(want)}
+
+    def _person_radiosity(self, y, pts, o, rays: SceneRays):
+        """B (E y): outgoing radiance (N, 3) of each body sample on its front and back side."""
+        idx = self._active(y)
+        lf = torch.zeros(len(o), 3, device=self.device, dtype=self.dtype)
+        lb = torch.zeros_like(lf)
+        for a in range(0, len(idx), self.settings.chunk):
+            ii = idx[a:a + self.settings.chunk]
+            src = {k: v[ii] for k, v in self.spot_pts.items()}
+            w = self.spot_flux[ii] * y[self.spot_owner[ii]].unsqueeze(-1)
+            geo = pair_geometry(src["pos"], src["normal"], o, pts["normal"])
+            vis = self._visible(rays, src["pos"], src["normal"], o, pts["normal"], geo)
+            f = brdf(src["normal"].unsqueeze(1), self.spot_to_proj[ii].unsqueeze(1), geo.dir_ab,
+                     src["kd"].unsqueeze(1), src["ks"].unsqueeze(1), src["alpha"].unsqueeze(1))
+            e = f * (geo.g * vis).unsqueeze(-1) * w.unsqueeze(1)
+            side = (geo.cos_b > 0).to(self.dtype).unsqueeze(-1)
+            lf = lf + (e * side).sum(0)
+            lb = lb + (e * (1 - side)).sum(0)
+        scale = pts["albedo"] / math.pi
+        return lf * scale, lb * scale
+
+    def _gather(self, pts, o, rays: SceneRays, front, back) -> torch.Tensor:
+        """A: radiance (N, C) leaving body samples (by side) -> pixel means (H, W, C)."""
+        r = self.recv_t
+        out = torch.zeros(len(r.pixel), front.shape[1], device=self.device, dtype=self.dtype)
+        wa = pts["area"]
+        for a in range(0, len(r.pixel), self.settings.chunk):
+            sl = slice(a, a + self.settings.chunk)
+            geo = pair_geometry(r.pts["pos"][sl], r.pts["normal"][sl], o, pts["normal"])
+            vis = self._visible(rays, r.pts["pos"][sl], r.pts["normal"][sl], o, pts["normal"], geo)
+            cos_c = (r.pts["normal"][sl] * r.to_cam[sl]).sum(-1, keepdim=True)
+            same = (geo.cos_a * cos_c > 0).to(self.dtype)
+            w = same * geo.g * vis * wa
+            side = (geo.cos_b > 0).to(self.dtype)
+            wf, wb = w * side, w * (1 - side)
+            rad = r.pts["kd"][sl].repeat(1, front.shape[1] // 3) / math.pi * (wf @ front + wb @ back)
+            gl = r.glossy[sl]
+            if gl.any():
+                rad = rad.clone()
+                rad[gl] = rad[gl] + self._glossy(geo, r, sl, gl, cos_c, wf, wb, front, back)
+            out[sl] = rad
+        return self._pixels(out, r)
+
+    def _glossy(self, geo, r, sl, gl, cos_c, wf, wb, front, back) -> torch.Tensor:
+        """The GGX part of f_p for glossy receivers, as a weight on the same pair sums."""
+        n = r.pts["normal"][sl][gl].unsqueeze(1)
+        wi = geo.dir_ab[gl]
+        wo = r.to_cam[sl][gl].unsqueeze(1)
+        alpha = r.pts["alpha"][sl][gl].unsqueeze(1)
+        h = wi + wo
+        h = h / h.norm(dim=-1, keepdim=True).clamp(min=1e-12)
+        cos_i, cos_o = geo.cos_a[gl], cos_c[gl]
+        spec = ggx_d((n * h).sum(-1).abs(), alpha) * smith_g1(cos_i, alpha) * smith_g1(cos_o, alpha)
+        spec = spec / (4 * cos_i.abs().clamp(min=COS_EPS) * cos_o.abs().clamp(min=COS_EPS))
+        ks = r.pts["ks"][sl][gl].repeat(1, front.shape[1] // 3)
+        return ks * ((wf[gl] * spec) @ front + (wb[gl] * spec) @ back)
+
+
