@@ -7,6 +7,8 @@ in by a relative epsilon and origins are pushed off their surface.
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,6 +17,20 @@ EPS = 1e-4
 """Offset (m) of shadow-ray origins and ends from their surfaces."""
 CHUNK = 1 << 22
 """Rays per Embree call; bounds temporary memory."""
+PARALLEL_MIN = 1 << 16
+"""Below this many rays a batch runs on the calling thread."""
+_POOL = None
+
+
+def _workers() -> int:
+    return max(1, min(8, os.cpu_count() or 1))
+
+
+def _pool() -> ThreadPoolExecutor:
+    global _POOL
+    if _POOL is None:
+        _POOL = ThreadPoolExecutor(_workers(), thread_name_prefix="embree")
+    return _POOL
 
 
 @dataclass
@@ -88,12 +104,19 @@ class RayEngine:
     def occluded_rays(self, origins: np.ndarray, dirs: np.ndarray, lengths: np.ndarray) -> np.ndarray:
         """(N,) bool: a triangle lies within ``lengths`` along each unit direction."""
         out = np.zeros(len(origins), dtype=bool)
-        for s in range(0, len(origins), CHUNK):
-            sl = slice(s, s + CHUNK)
+
+        def run(sl: slice) -> None:
             r = self._scene.run(np.ascontiguousarray(origins[sl], dtype=np.float32),
                                 np.ascontiguousarray(dirs[sl], dtype=np.float32), query="OCCLUDED",
                                 dists=np.ascontiguousarray(lengths[sl], dtype=np.float32))
             out[sl] = r >= 0
+
+        step = min(CHUNK, max(PARALLEL_MIN, -(-len(origins) // _workers())))
+        slices = [slice(s, s + step) for s in range(0, len(origins), step)]
+        if len(slices) == 1:
+            run(slices[0])
+        else:  # Embree releases the GIL for most of a batch: threads scale on a few cores
+            list(_pool().map(run, slices))
         return out
 
 

@@ -236,7 +236,7 @@ class Renderer:
     def _interreflection(self, y: torch.Tensor) -> torch.Tensor:
         """One LOS-LOS bounce: P -> x_s -> x_p -> C."""
         idx = self._active(y)
-        r = self.recv
+        r = self.recv_t  # a per-spot pair sum like the person terms: same sub-sample budget
         src = {k: v[idx] for k, v in self.spot_pts.items()}
         w = self.spot_flux[idx] * y[self.spot_owner[idx]].unsqueeze(-1)
         out = torch.zeros(len(r.pixel), 3, device=self.device, dtype=self.dtype)

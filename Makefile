@@ -1,0 +1,31 @@
+# One virtual environment at .venv; every target sets it up first.
+PYTHON ?= python3
+TORCH_VERSION ?= 2.13.0
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: setup test demo bench clean
+
+$(STAMP): pyproject.toml Makefile
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	# pinned so pip takes the CPU wheel instead of resolving a multi-GB CUDA build; override TORCH_VERSION
+	$(BIN)/pip install --quiet torch==$(TORCH_VERSION)
+	$(BIN)/pip install --quiet -e ".[test]"
+	touch $(STAMP)
+
+setup: $(STAMP)
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+demo: $(STAMP)
+	$(BIN)/python -m nlos_spotlight.demo --out out/demo
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/render_speed.py
+	$(BIN)/python benchmarks/render_vs_mitsuba.py
+
+clean:
+	rm -rf $(VENV) out

@@ -1,0 +1,77 @@
+"""Time one 64x64 image (all components) for one person and one spot after the per-scene precompute.
+
+Prints the precompute time, the per-image time and its ratio to the 50 ms goal, the per-image time of
+the slow reference implementation on the same samples (measured in this run, on a smaller image),
+and peak memory (RSS; CUDA peak when on a GPU).
+
+    python benchmarks/render_speed.py [--res 64] [--repeats 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import time
+
+import torch
+
+from nlos_spotlight.render.person import Person
+from nlos_spotlight.render.reference import reference_person_terms
+from nlos_spotlight.render.transport import COMPONENTS, Renderer, RenderSettings
+from nlos_spotlight.scene.examples import SPOT_TARGET, corner_scene
+
+GOAL_S = 0.050
+
+
+def rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--res", type=int, default=64)
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--person-samples", type=int, default=RenderSettings.person_samples)
+    ap.add_argument("--transport-samples", type=int, default=RenderSettings.transport_pixel_samples)
+    args = ap.parse_args()
+    settings = RenderSettings(person_samples=args.person_samples, transport_pixel_samples=args.transport_samples)
+    sc = corner_scene("example", args.res)
+    rss0 = rss_mb()
+    t = time.perf_counter()
+    r = Renderer(sc, settings)  # every face is a candidate, as in training
+    t_pre = time.perf_counter() - t
+    person = Person.from_mesh(sc.human.mesh, sc.human.albedo, settings.person_samples)
+    y = r.spot_vector(int(((r.aim_points - SPOT_TARGET) ** 2).sum(1).argmin()))
+    r.render(y, person, components=COMPONENTS)  # warm-up
+    times = []
+    for _ in range(args.repeats):
+        t = time.perf_counter()
+        r.render(y, person, translation=[0.1, 0.1], components=COMPONENTS)
+        times.append(time.perf_counter() - t)
+    per_image = sorted(times)[len(times) // 2]
+    print(f"device {r.device}, {torch.get_num_threads()} threads; scene faces (candidates) {r.num_spots}; "
+          f"{args.res}x{args.res}, transport {settings.transport_pixel_samples}^2 sub-samples/pixel, "
+          f"{settings.person_samples} body samples, {settings.spot_samples} spot rays")
+    print(f"precompute (D for all {r.num_spots} candidates, ambient, spot samples): {t_pre:.2f} s")
+    print(f"one image, all components, median of {args.repeats}: {per_image * 1e3:.1f} ms "
+          f"(goal 50 ms: ratio {per_image / GOAL_S:.2f}x; goal {'met' if per_image <= GOAL_S else 'NOT met'})")
+    # the slow reference on the same kind of samples, at 16x16, for a same-run ratio
+    small = corner_scene("example", 16)
+    rs = Renderer(small, RenderSettings(transport_pixel_samples=1, person_samples=128, spot_samples=16),
+                  aim_points=SPOT_TARGET[None])
+    ps = Person.from_mesh(small.human.mesh, small.human.albedo, 128)
+    t = time.perf_counter()
+    rs.render(rs.spot_vector(0), ps, components=("nlos", "nlos_ambient"))
+    t_fast = time.perf_counter() - t
+    t = time.perf_counter()
+    reference_person_terms(rs, rs.spot_vector(0), ps, None)
+    t_slow = time.perf_counter() - t
+    print(f"person terms at 16x16, 128 body samples: fast {t_fast * 1e3:.1f} ms, slow reference "
+          f"{t_slow * 1e3:.0f} ms (speed-up {t_slow / t_fast:.0f}x)")
+    peak = torch.cuda.max_memory_allocated() / 2**20 if r.device.type == "cuda" else None
+    print(f"peak RSS {rss_mb():.0f} MB (+{rss_mb() - rss0:.0f} MB for the renderer)"
+          + (f", CUDA peak {peak:.0f} MB" if peak is not None else ""))
+
+
+if __name__ == "__main__":
+    main()
