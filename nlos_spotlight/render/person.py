@@ -26,6 +26,8 @@ class Person:
     """(N,) area each sample stands for, m^2 (sums to the mesh area)."""
     albedo: np.ndarray
     """(N, 3) Lambertian albedo."""
+    closed: bool = False
+    """The mesh is watertight: light never leaves its inner side, so those pairs need no rays."""
 
     @classmethod
     def from_mesh(cls, mesh: TriMesh, albedo, n: int = 512) -> "Person":
@@ -41,7 +43,10 @@ class Person:
         tri = mesh.vertices[mesh.faces[face]]
         pos = np.einsum("ij,ijk->ik", bary, tri)
         alb = np.broadcast_to(np.asarray(albedo, dtype=np.float64), (n, 3)).copy()
-        return cls(mesh, pos, mesh.face_normals()[face], np.full(n, areas.sum() / n), alb)
+        import trimesh
+
+        closed = bool(trimesh.Trimesh(mesh.vertices, mesh.faces, process=False).is_watertight)
+        return cls(mesh, pos, mesh.face_normals()[face], np.full(n, areas.sum() / n), alb, closed)
 
     def translated_mesh(self, t: np.ndarray) -> TriMesh:
         return TriMesh(self.mesh.vertices + t, self.mesh.faces)

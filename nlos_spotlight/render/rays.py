@@ -129,24 +129,26 @@ def _offset(p: np.ndarray, toward: np.ndarray, normal: np.ndarray | None) -> np.
     return p + EPS * (side * normal + d)
 
 
-def pair_rays(pa, na, pb, nb, dir_ab, cos_a, cos_b):
-    """Shadow rays for all (a_i, b_j) pairs from torch pair geometry (see ``kernels.pair_geometry``).
+def pair_rays(pa, na, pb, nb, dir_ab, cos_a, cos_b, need=None):
+    """Shadow rays for (a_i, b_j) pairs from torch pair geometry (see ``kernels.pair_geometry``).
 
-    Returns float32 numpy origins (Na*Nb, 3), unit directions and lengths, each end pushed
-    off its surface toward the other end; built in torch because this runs per person.
+    ``need`` (Na, Nb) bool selects the pairs to cast (default all). Returns float32 numpy origins
+    (M, 3), unit directions (M, 3) and lengths (M,), each end pushed off its surface toward the
+    other end; built in torch because this runs per person.
     """
     import torch
 
     with torch.no_grad():
-        sa = torch.sign(cos_a).unsqueeze(-1)
-        sb = torch.sign(cos_b).unsqueeze(-1)
-        o = pa.unsqueeze(1) + EPS * (sa * na.unsqueeze(1) + dir_ab)
-        e = pb.unsqueeze(0) + EPS * (sb * nb.unsqueeze(0) - dir_ab)
-        d = (e - o).float().reshape(-1, 3)
+        if need is None:
+            need = torch.ones_like(cos_a, dtype=torch.bool)
+        ia, ib = need.nonzero(as_tuple=True)
+        d_ab = dir_ab[ia, ib]
+        o = pa[ia] + EPS * (torch.sign(cos_a[ia, ib]).unsqueeze(-1) * na[ia] + d_ab)
+        e = pb[ib] + EPS * (torch.sign(cos_b[ia, ib]).unsqueeze(-1) * nb[ib] - d_ab)
+        d = (e - o).float()
         length = d.norm(dim=1)
         d = d / length.clamp(min=1e-30).unsqueeze(1)
-        return (o.float().reshape(-1, 3).cpu().numpy(), d.cpu().numpy(),
-                (length - EPS).clamp(min=0).cpu().numpy())
+        return (o.float().cpu().numpy(), d.cpu().numpy(), (length - EPS).clamp(min=0).cpu().numpy())
 
 
 class SceneRays:

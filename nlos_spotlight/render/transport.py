@@ -243,8 +243,11 @@ class Renderer:
         for a in range(0, len(r.pixel), self.settings.chunk):
             sl = slice(a, a + self.settings.chunk)
             geo = pair_geometry(src["pos"], src["normal"], r.pts["pos"][sl], r.pts["normal"][sl])
+            lit = (src["normal"] * self.spot_to_proj[idx]).sum(-1, keepdim=True)
+            seen = (r.pts["normal"][sl] * r.to_cam[sl]).sum(-1)
+            need = (geo.cos_a * lit > 0) & (geo.cos_b * seen > 0)
             vis = self._visible(self.static.engine, src["pos"], src["normal"], r.pts["pos"][sl],
-                                r.pts["normal"][sl], geo)
+                                r.pts["normal"][sl], geo, need)
             f_src = brdf(src["normal"].unsqueeze(1), self.spot_to_proj[idx].unsqueeze(1), geo.dir_ab,
                          src["kd"].unsqueeze(1), src["ks"].unsqueeze(1), src["alpha"].unsqueeze(1))
             f_rec = brdf(r.pts["normal"][sl].unsqueeze(0), -geo.dir_ab, r.to_cam[sl].unsqueeze(0),
@@ -252,10 +255,17 @@ class Renderer:
             out[sl] = (f_src * f_rec * (geo.g * vis).unsqueeze(-1) * w.unsqueeze(1)).sum(0)
         return self._pixels(out, r)
 
-    def _visible(self, rays, pa, na, pb, nb, geo) -> torch.Tensor:
-        """(Na, Nb) 0/1 mutual visibility of two point sets (held fixed under autograd)."""
-        occ = rays.occluded_rays(*pair_rays(pa, na, pb, nb, geo.dir_ab, geo.cos_a, geo.cos_b))
-        return self._t(~occ).reshape(geo.cos_a.shape)
+    def _visible(self, rays, pa, na, pb, nb, geo, need: torch.Tensor) -> torch.Tensor:
+        """(Na, Nb) 0/1 mutual visibility (held fixed under autograd); rays only for ``need`` pairs.
+
+        Pairs whose transport weight is zero anyway (light on the wrong side of a surface, or the
+        inside of a closed body) are left at 0 without casting a ray.
+        """
+        vis = torch.zeros(geo.cos_a.shape, device=self.device, dtype=self.dtype)
+        if need.any():
+            occ = rays.occluded_rays(*pair_rays(pa, na, pb, nb, geo.dir_ab, geo.cos_a, geo.cos_b, need))
+            vis[need] = self._t(~occ)
+        return vis
 
     def _person_terms(self, y, person, translation, want) -> dict[str, torch.Tensor]:
         if person is None:
@@ -280,17 +290,17 @@ class Renderer:
         o = pts["pos"] + t
         radiance = []
         if "nlos" in want:
-            lf, lb = self._person_radiosity(y, pts, o, rays)
+            lf, lb = self._person_radiosity(y, person, pts, o, rays)
             radiance.append((lf, lb))
         if "nlos_ambient" in want:
             own = (pts["albedo"] - 1) * hidden
             radiance.append((own, own))
         front = torch.cat([r[0] for r in radiance], dim=1)
         back = torch.cat([r[1] for r in radiance], dim=1)
-        img = self._gather(pts, o, rays, front, back)
+        img = self._gather(person, pts, o, rays, front, back)
         return {c: img[..., 3 * i:3 * i + 3] for i, c in enumerate(want)}
 
-    def _person_radiosity(self, y, pts, o, rays: SceneRays):
+    def _person_radiosity(self, y, person: Person, pts, o, rays: SceneRays):
         """B (E y): outgoing radiance (N, 3) of each body sample on its front and back side."""
         idx = self._active(y)
         lf = torch.zeros(len(o), 3, device=self.device, dtype=self.dtype)
@@ -300,7 +310,9 @@ class Renderer:
             src = {k: v[ii] for k, v in self.spot_pts.items()}
             w = self.spot_flux[ii] * y[self.spot_owner[ii]].unsqueeze(-1)
             geo = pair_geometry(src["pos"], src["normal"], o, pts["normal"])
-            vis = self._visible(rays, src["pos"], src["normal"], o, pts["normal"], geo)
+            lit = (src["normal"] * self.spot_to_proj[ii]).sum(-1, keepdim=True)
+            need = (geo.cos_a * lit > 0) & ((geo.cos_b > 0) | (not person.closed))
+            vis = self._visible(rays, src["pos"], src["normal"], o, pts["normal"], geo, need)
             f = brdf(src["normal"].unsqueeze(1), self.spot_to_proj[ii].unsqueeze(1), geo.dir_ab,
                      src["kd"].unsqueeze(1), src["ks"].unsqueeze(1), src["alpha"].unsqueeze(1))
             e = f * (geo.g * vis).unsqueeze(-1) * w.unsqueeze(1)
@@ -310,7 +322,7 @@ class Renderer:
         scale = pts["albedo"] / math.pi
         return lf * scale, lb * scale
 
-    def _gather(self, pts, o, rays: SceneRays, front, back) -> torch.Tensor:
+    def _gather(self, person: Person, pts, o, rays: SceneRays, front, back) -> torch.Tensor:
         """A: radiance (N, C) leaving body samples (by side) -> pixel means (H, W, C)."""
         r = self.recv_t
         out = torch.zeros(len(r.pixel), front.shape[1], device=self.device, dtype=self.dtype)
@@ -318,9 +330,10 @@ class Renderer:
         for a in range(0, len(r.pixel), self.settings.chunk):
             sl = slice(a, a + self.settings.chunk)
             geo = pair_geometry(r.pts["pos"][sl], r.pts["normal"][sl], o, pts["normal"])
-            vis = self._visible(rays, r.pts["pos"][sl], r.pts["normal"][sl], o, pts["normal"], geo)
             cos_c = (r.pts["normal"][sl] * r.to_cam[sl]).sum(-1, keepdim=True)
-            same = (geo.cos_a * cos_c > 0).to(self.dtype)
+            need = (geo.cos_a * cos_c > 0) & ((geo.cos_b > 0) | (not person.closed))
+            vis = self._visible(rays, r.pts["pos"][sl], r.pts["normal"][sl], o, pts["normal"], geo, need)
+            same = need.to(self.dtype)
             w = same * geo.g * vis * wa
             side = (geo.cos_b > 0).to(self.dtype)
             wf, wb = w * side, w * (1 - side)
