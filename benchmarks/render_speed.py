@@ -27,16 +27,8 @@ def rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--res", type=int, default=64)
-    ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--person-samples", type=int, default=RenderSettings.person_samples)
-    ap.add_argument("--transport-samples", type=int, default=RenderSettings.transport_pixel_samples)
-    args = ap.parse_args()
-    settings = RenderSettings(person_samples=args.person_samples, transport_pixel_samples=args.transport_samples)
-    sc = corner_scene("example", args.res)
-    rss0 = rss_mb()
+def time_image(sc, settings: RenderSettings, repeats: int):
+    """Median seconds per all-component image after precompute, the precompute time, and the nlos image."""
     t = time.perf_counter()
     r = Renderer(sc, settings)  # every face is a candidate, as in training
     t_pre = time.perf_counter() - t
@@ -44,17 +36,35 @@ def main() -> None:
     y = r.spot_vector(int(((r.aim_points - SPOT_TARGET) ** 2).sum(1).argmin()))
     r.render(y, person, components=COMPONENTS)  # warm-up
     times = []
-    for _ in range(args.repeats):
+    for _ in range(repeats):
         t = time.perf_counter()
-        r.render(y, person, translation=[0.1, 0.1], components=COMPONENTS)
+        out = r.render(y, person, translation=[0.1, 0.1], components=COMPONENTS)
         times.append(time.perf_counter() - t)
-    per_image = sorted(times)[len(times) // 2]
-    print(f"device {r.device}, {torch.get_num_threads()} threads; scene faces (candidates) {r.num_spots}; "
-          f"{args.res}x{args.res}, transport {settings.transport_pixel_samples}^2 sub-samples/pixel, "
-          f"{settings.person_samples} body samples, {settings.spot_samples} spot rays")
-    print(f"precompute (D for all {r.num_spots} candidates, ambient, spot samples): {t_pre:.2f} s")
-    print(f"one image, all components, median of {args.repeats}: {per_image * 1e3:.1f} ms "
-          f"(goal 50 ms: ratio {per_image / GOAL_S:.2f}x; goal {'met' if per_image <= GOAL_S else 'NOT met'})")
+    return sorted(times)[len(times) // 2], t_pre, out["nlos"], r
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--res", type=int, default=64)
+    ap.add_argument("--repeats", type=int, default=5)
+    args = ap.parse_args()
+    sc = corner_scene("example", args.res)
+    rss0 = rss_mb()
+    presets = {"default": RenderSettings(),
+               "fast": RenderSettings(transport_pixel_samples=1, person_samples=256, spot_samples=32)}
+    results = {}
+    for name, settings in presets.items():
+        per_image, t_pre, nlos, r = time_image(sc, settings, args.repeats)
+        results[name] = nlos
+        print(f"[{name}] device {r.device}, {torch.get_num_threads()} threads; {r.num_spots} candidate faces; "
+              f"{args.res}x{args.res}; transport {settings.transport_pixel_samples}^2 sub-samples/pixel, "
+              f"{settings.person_samples} body samples, {settings.spot_samples} spot rays")
+        print(f"[{name}] precompute (D for all candidates, ambient, spot samples): {t_pre:.2f} s")
+        print(f"[{name}] one image, all components, median of {args.repeats}: {per_image * 1e3:.1f} ms "
+              f"(goal 50 ms: ratio {per_image / GOAL_S:.2f}x; goal {'met' if per_image <= GOAL_S else 'NOT met'})")
+    a, b = results["fast"], results["default"]
+    print(f"fast vs default nlos: total {float(a.sum() / b.sum()) - 1:+.4f}, "
+          f"pixel correlation {float(torch.corrcoef(torch.stack([a.sum(-1).flatten(), b.sum(-1).flatten()]))[0, 1]):.4f}")
     # the slow reference on the same kind of samples, at 16x16, for a same-run ratio
     small = corner_scene("example", 16)
     rs = Renderer(small, RenderSettings(transport_pixel_samples=1, person_samples=128, spot_samples=16),
@@ -68,8 +78,8 @@ def main() -> None:
     t_slow = time.perf_counter() - t
     print(f"person terms at 16x16, 128 body samples: fast {t_fast * 1e3:.1f} ms, slow reference "
           f"{t_slow * 1e3:.0f} ms (speed-up {t_slow / t_fast:.0f}x)")
-    peak = torch.cuda.max_memory_allocated() / 2**20 if r.device.type == "cuda" else None
-    print(f"peak RSS {rss_mb():.0f} MB (+{rss_mb() - rss0:.0f} MB for the renderer)"
+    peak = torch.cuda.max_memory_allocated() / 2**20 if torch.cuda.is_available() else None
+    print(f"peak RSS {rss_mb():.0f} MB (+{rss_mb() - rss0:.0f} MB for the renderers)"
           + (f", CUDA peak {peak:.0f} MB" if peak is not None else ""))
 
 

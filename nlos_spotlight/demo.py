@@ -18,7 +18,7 @@ from .console import console
 
 
 def bundled_scene() -> Path:
-    return Path(str(resources.files("nlos_spotlight") / "data" / "example_scene"))
+    return Path(str(resources.files("nlos_spotlight") / "assets" / "example_scene"))
 
 
 def save_png(img: np.ndarray, path: Path, signed: bool = False) -> None:

@@ -300,15 +300,20 @@ class Renderer:
         img = self._gather(person, pts, o, rays, front, back)
         return {c: img[..., 3 * i:3 * i + 3] for i, c in enumerate(want)}
 
-    def _person_radiosity(self, y, person: Person, pts, o, rays: SceneRays):
-        """B (E y): outgoing radiance (N, 3) of each body sample on its front and back side."""
-        idx = self._active(y)
-        lf = torch.zeros(len(o), 3, device=self.device, dtype=self.dtype)
+    def _person_radiosity(self, y, person: Person, pts, o, rays: SceneRays, per_spot: bool = False):
+        """B (E y): outgoing radiance of each body sample on its front and back side.
+
+        Returns two (N, 3) tensors, or with ``per_spot`` two (N, 3 T) tensors holding one RGB triple
+        per candidate (the columns of B E, y ignored).
+        """
+        idx = torch.arange(len(self.spot_owner), device=self.device) if per_spot else self._active(y)
+        groups = self.num_spots if per_spot else 1
+        lf = torch.zeros(groups, len(o), 3, device=self.device, dtype=self.dtype)
         lb = torch.zeros_like(lf)
         for a in range(0, len(idx), self.settings.chunk):
             ii = idx[a:a + self.settings.chunk]
             src = {k: v[ii] for k, v in self.spot_pts.items()}
-            w = self.spot_flux[ii] * y[self.spot_owner[ii]].unsqueeze(-1)
+            w = self.spot_flux[ii] if per_spot else self.spot_flux[ii] * y[self.spot_owner[ii]].unsqueeze(-1)
             geo = pair_geometry(src["pos"], src["normal"], o, pts["normal"])
             lit = (src["normal"] * self.spot_to_proj[ii]).sum(-1, keepdim=True)
             need = (geo.cos_a * lit > 0) & ((geo.cos_b > 0) | (not person.closed))
@@ -317,10 +322,28 @@ class Renderer:
                      src["kd"].unsqueeze(1), src["ks"].unsqueeze(1), src["alpha"].unsqueeze(1))
             e = f * (geo.g * vis).unsqueeze(-1) * w.unsqueeze(1)
             side = (geo.cos_b > 0).to(self.dtype).unsqueeze(-1)
-            lf = lf + (e * side).sum(0)
-            lb = lb + (e * (1 - side)).sum(0)
-        scale = pts["albedo"] / math.pi
-        return lf * scale, lb * scale
+            group = self.spot_owner[ii] if per_spot else torch.zeros_like(ii)
+            lf = lf.index_add(0, group, e * side)
+            lb = lb.index_add(0, group, e * (1 - side))
+        scale = (pts["albedo"] / math.pi).unsqueeze(1)  # (N, 1, 3)
+        lf, lb = lf.transpose(0, 1) * scale, lb.transpose(0, 1) * scale  # (N, groups, 3)
+        return lf.reshape(len(o), -1), lb.reshape(len(o), -1)
+
+    def transport_images(self, person: Person, translation=None) -> torch.Tensor:
+        """The ``nlos`` image of every candidate spot for one body placement, (T, H, W, 3).
+
+        These are the columns of the light transport matrix F (paper Eq. (1)): for any spot vector
+        y, ``nlos(y) = einsum('thwc,t->hwc', F, y)``. The person -> pixel transport A is shared by
+        all candidates, so all T images cost little more than one.
+        """
+        t = as_translation(translation, 1, self.device, self.dtype)[0]
+        pts = {k: self._t(getattr(person, k)) for k in ("pos", "normal", "area", "albedo")}
+        rays = SceneRays(self.static.engine, RayEngine(person.translated_mesh(t.detach().cpu().numpy()).vertices,
+                                                       person.mesh.faces))
+        o = pts["pos"] + t
+        lf, lb = self._person_radiosity(None, person, pts, o, rays, per_spot=True)
+        img = self._gather(person, pts, o, rays, lf, lb)  # (H, W, 3 T)
+        return img.reshape(*self.shape, self.num_spots, 3).permute(2, 0, 1, 3)
 
     def _gather(self, person: Person, pts, o, rays: SceneRays, front, back) -> torch.Tensor:
         """A: radiance (N, C) leaving body samples (by side) -> pixel means (H, W, C)."""

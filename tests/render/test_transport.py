@@ -101,3 +101,13 @@ def test_person_occludes_its_own_light(monkeypatch):
     monkeypatch.setattr(transport, "SceneRays", lambda static, person: static_only(static, None))
     unoccluded = r.render(r.spot_vector(0), p, components=("nlos",))["nlos"].sum()
     assert unoccluded > occluded * 1.01
+
+
+def test_transport_images_are_the_columns_of_f(setup):
+    _, r, person = setup
+    t = torch.tensor([0.05, 0.1], dtype=torch.float64)
+    f = r.transport_images(person, t)
+    assert f.shape == (3, 8, 8, 3)
+    y = torch.tensor([0.3, 1.2, 0.5], dtype=torch.float64)
+    expect = r.render(y, person, translation=t, components=("nlos",))["nlos"]
+    assert torch.allclose(torch.einsum("thwc,t->hwc", f, y), expect, rtol=1e-10)
