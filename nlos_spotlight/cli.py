@@ -79,6 +79,28 @@ def cmd_render(args: argparse.Namespace) -> None:
     console.print(f"wrote {out} {arr.shape} float32; per-component totals (W sr^-1 m^-2 summed over pixels): {sums}")
 
 
+def _shard(text: str) -> tuple[int, int]:
+    try:
+        i, n = (int(v) for v in text.split("/"))
+    except ValueError:
+        raise NlosError(f"--shard: expected I/N (e.g. 0/4), got {text!r}") from None
+    return i, n
+
+
+def cmd_generate(args: argparse.Namespace) -> None:
+    from .console import console
+    from .data.config import load_config
+    from .data.generate import generate
+
+    cfg = load_config(args.config)
+    if args.seed is not None:
+        cfg.seed = args.seed
+    rec = generate(cfg, args.out, _shard(args.shard), progress=not args.quiet)
+    manifest = Path(args.out) / "manifest.json"
+    state = f"complete: {manifest}" if manifest.exists() else "other shards pending (manifest written by the last)"
+    console.print(f"shard {rec['shard']}: {len(rec['scenes'])} scenes in {rec['seconds']:.1f} s; dataset {state}")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="nlos", description="NLOS human localization with a projector spotlight")
     sub = p.add_subparsers(dest="command", required=True)
@@ -98,6 +120,13 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--person-samples", type=int, default=1024)
     r.add_argument("--spot-samples", type=int, default=256)
     r.set_defaults(func=cmd_render)
+    g = sub.add_parser("generate", help="generate a synthetic dataset (deterministic, sharded, resumable)")
+    g.add_argument("config", help="preset (tiny, small, paper) or a YAML file of DatasetConfig fields")
+    g.add_argument("--out", required=True, help="dataset directory (rerun the same command to resume)")
+    g.add_argument("--shard", default="0/1", help="I/N: build scenes whose index is I mod N")
+    g.add_argument("--seed", type=int, help="override the config's master seed")
+    g.add_argument("--quiet", action="store_true", help="no progress bar (also NLOS_QUIET=1 or CI=true)")
+    g.set_defaults(func=cmd_generate)
     return p
 
 

@@ -1,0 +1,1 @@
+"""Synthetic datasets: configuration, generation in shards, on-disk format and reading."""

@@ -1,0 +1,119 @@
+"""Typed dataset configuration with named presets (``tiny``, ``small``, ``paper``) and YAML files."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import NlosError
+
+
+@dataclass
+class DatasetConfig:
+    """Everything that determines a dataset's content (with the code version)."""
+
+    name: str = "tiny"
+    """Preset or user name, recorded in the manifest."""
+    seed: int = 0
+    """Master seed; every scene and sample seed derives from it."""
+    train_scenes: int = 2
+    """Procedural rooms in the training split."""
+    val_scenes: int = 1
+    """Rooms in the validation split."""
+    test_scenes: int = 1
+    """Rooms in the test split (never seen in training)."""
+    samples_per_scene: int = 6
+    """Static-pose samples per room (postures balanced, positions uniform)."""
+    trajectories_per_test_scene: int = 1
+    """Walking trajectories per test room, for tracking."""
+    trajectory_frames: int = 12
+    """Frames per trajectory."""
+    frame_rate_hz: float = 5.0
+    """Frames per second along a trajectory."""
+    resolution: int = 32
+    """Camera image width and height, pixels."""
+    los_vertices: int = 120
+    """Target vertex count of the decimated LOS mesh the IEN reads (its faces are the spot candidates)."""
+    transport_rank: int = 48
+    """Rank of the stored per-sample transport matrix F (0 stores it in full)."""
+    body_faces: int = 1500
+    """Target face count of decimated bodies."""
+    pixel_samples: int = 2
+    """Renderer: n x n sub-samples per pixel for the per-scene terms."""
+    transport_pixel_samples: int = 1
+    """Renderer: n x n sub-samples per pixel for the person terms."""
+    spot_samples: int = 16
+    """Renderer: projector rays per candidate spot."""
+    person_samples: int = 192
+    """Renderer: area samples on the body."""
+    families: list[str] = field(default_factory=list)
+    """Room layout families to cycle through (empty: all)."""
+
+    @property
+    def num_scenes(self) -> int:
+        return self.train_scenes + self.val_scenes + self.test_scenes
+
+    def split_of(self, index: int) -> str:
+        if index < self.train_scenes:
+            return "train"
+        return "val" if index < self.train_scenes + self.val_scenes else "test"
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+PRESETS = {
+    "tiny": DatasetConfig(),
+    "small": DatasetConfig(name="small", train_scenes=16, val_scenes=4, test_scenes=6, samples_per_scene=36,
+                           trajectories_per_test_scene=2, trajectory_frames=30, resolution=32, los_vertices=300,
+                           person_samples=256),
+    "paper": DatasetConfig(name="paper", train_scenes=300, val_scenes=30, test_scenes=60, samples_per_scene=120,
+                           trajectories_per_test_scene=4, trajectory_frames=60, resolution=64, los_vertices=800,
+                           transport_rank=96, pixel_samples=4, transport_pixel_samples=2, spot_samples=32,
+                           person_samples=512),
+}
+
+
+def load_config(spec: str) -> DatasetConfig:
+    """A preset name or a YAML file of ``DatasetConfig`` fields (optionally ``base: PRESET``)."""
+    if spec in PRESETS:
+        return dataclasses.replace(PRESETS[spec])
+    path = Path(spec)
+    if not path.is_file():
+        raise NlosError(f"config: '{spec}' is neither a preset ({', '.join(PRESETS)}) nor a file")
+    import yaml
+
+    try:
+        d = yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as exc:
+        raise NlosError(f"{path}: invalid YAML ({str(exc).splitlines()[0]})") from None
+    if not isinstance(d, dict):
+        raise NlosError(f"{path}: expected a mapping of config fields")
+    base = d.pop("base", "tiny")
+    if base not in PRESETS:
+        raise NlosError(f"{path}: base '{base}' is not a preset ({', '.join(PRESETS)})")
+    cfg = dataclasses.replace(PRESETS[base], name=path.stem)
+    names = {f.name: f for f in dataclasses.fields(DatasetConfig)}
+    for k, v in d.items():
+        if k not in names:
+            raise NlosError(f"{path}: unknown key '{k}'")
+        expected = type(getattr(cfg, k))
+        if expected is float and isinstance(v, int) and not isinstance(v, bool):
+            v = float(v)
+        if not isinstance(v, expected) or isinstance(v, bool) != (expected is bool):
+            raise NlosError(f"{path}: {k} must be {expected.__name__}, got {v!r}")
+        setattr(cfg, k, v)
+    _validate(cfg, str(path))
+    return cfg
+
+
+def _validate(cfg: DatasetConfig, where: str) -> None:
+    for k in ("train_scenes", "test_scenes", "samples_per_scene", "resolution", "los_vertices", "spot_samples",
+              "person_samples", "pixel_samples", "transport_pixel_samples", "body_faces"):
+        if getattr(cfg, k) < 1:
+            raise NlosError(f"{where}: {k} must be at least 1")
+    if cfg.resolution > 1024 or cfg.samples_per_scene > 100000 or cfg.num_scenes > 1000000:
+        raise NlosError(f"{where}: absurd size (resolution {cfg.resolution}, {cfg.num_scenes} scenes)")
+    if cfg.los_vertices < 8:
+        raise NlosError(f"{where}: los_vertices must be at least 8")

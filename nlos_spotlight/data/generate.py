@@ -1,0 +1,163 @@
+"""``nlos generate``: deterministic, sharded, resumable dataset generation (docs/dataset-format.md).
+
+Work is split by scene: shard I of N builds the scenes whose index is I mod N, so shards can run on
+different machines over copies of (or a shared) output directory and merge by copying the scene
+directories together. Every file is written atomically; a scene is finished when its ``done.json``
+(content digests of its files) exists, and a rerun skips finished scenes and finished samples, so a
+killed run resumes with nothing lost or duplicated. When every scene is done, ``manifest.json``
+records the config, seeds, versions and one ``content_sha256`` over all content.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ..errors import NlosError
+from .config import DatasetConfig
+from .store import FORMAT, atomic_json, content_sha256, file_digest, remove_stale_temporaries, scene_id
+
+
+@dataclass
+class ScenePlan:
+    """One scene of the dataset."""
+
+    index: int
+    """Global scene index (its shard is index mod N)."""
+    split: str
+    """'train', 'val' or 'test'."""
+    seed: int
+    """Seed of the room generator."""
+    family: str
+    """Room layout family."""
+
+    @property
+    def id(self) -> str:
+        return scene_id(self.split, self.index)
+
+
+def plan(cfg: DatasetConfig) -> list[ScenePlan]:
+    from ..world.rooms import FAMILIES
+
+    fams = cfg.families or list(FAMILIES)
+    unknown = [f for f in fams if f not in FAMILIES]
+    if unknown:
+        raise NlosError(f"config: unknown room family '{unknown[0]}' (choose from {', '.join(FAMILIES)})")
+    seeds = np.random.SeedSequence(cfg.seed).generate_state(cfg.num_scenes)
+    return [ScenePlan(i, cfg.split_of(i), int(seeds[i]), fams[i % len(fams)]) for i in range(cfg.num_scenes)]
+
+
+def versions() -> dict[str, str]:
+    import importlib.metadata as md
+
+    out = {"python": platform.python_version()}
+    for pkg in ("nlos-spotlight", "torch", "numpy", "scipy", "trimesh", "embreex", "fast-simplification", "anny"):
+        try:
+            out[pkg] = md.version(pkg)
+        except md.PackageNotFoundError:
+            pass
+    return out
+
+
+def _check_config(out: Path, cfg: DatasetConfig) -> None:
+    path = out / "config.json"
+    if path.exists():
+        try:
+            old = json.loads(path.read_text())
+        except json.JSONDecodeError:
+            raise NlosError(f"{path}: corrupted (invalid JSON); remove it to start over") from None
+        if old != cfg.to_dict():
+            diff = sorted(k for k in set(old) | set(cfg.to_dict()) if old.get(k) != cfg.to_dict().get(k))
+            raise NlosError(f"{out} holds a dataset made with another config (differs in: {', '.join(diff)})")
+    else:
+        atomic_json(path, cfg.to_dict())
+
+
+def sample_count(cfg: DatasetConfig, split: str) -> int:
+    n = cfg.samples_per_scene
+    if split == "test":
+        n += cfg.trajectories_per_test_scene * cfg.trajectory_frames
+    return n
+
+
+def generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int] = (0, 1), progress: bool = True) -> dict:
+    """Build this shard's scenes; write the manifest if that completes the dataset. Returns the shard record."""
+    from ..console import QUIET, console
+
+    out = Path(out)
+    i, n = shard
+    if not (n >= 1 and 0 <= i < n):
+        raise NlosError(f"--shard: expected I/N with 0 <= I < N, got {i}/{n}")
+    out.mkdir(parents=True, exist_ok=True)
+    _check_config(out, cfg)
+    remove_stale_temporaries(out)
+    mine = [p for p in plan(cfg) if p.index % n == i]
+    total = sum(sample_count(cfg, p.split) for p in mine)
+    t0 = time.perf_counter()
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    columns = (TextColumn("generate"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
+    with Progress(*columns, console=console, disable=QUIET or not progress) as bar:
+        task = bar.add_task("samples", total=total)
+        from .scene_builder import SceneBuilder
+
+        for p in mine:
+            SceneBuilder(cfg, p, out).build(lambda k=1: bar.advance(task, k))
+    record = {"shard": f"{i}/{n}", "scenes": [p.id for p in mine], "seconds": time.perf_counter() - t0,
+              "versions": versions(), "torch_threads": torch.get_num_threads()}
+    (out / "shards").mkdir(exist_ok=True)
+    atomic_json(out / "shards" / f"{i}-of-{n}.json", record)
+    finalize(cfg, out)
+    return record
+
+
+def finalize(cfg: DatasetConfig, out: Path) -> dict | None:
+    """Write ``manifest.json`` if every scene is done; returns it (or None if scenes are missing)."""
+    digests, splits = {}, {"train": [], "val": [], "test": []}
+    for p in plan(cfg):
+        done = out / "scenes" / p.id / "done.json"
+        if not done.exists():
+            return None
+        try:
+            rec = json.loads(done.read_text())
+        except json.JSONDecodeError:
+            raise NlosError(f"{done}: corrupted (invalid JSON); delete it to rebuild that scene") from None
+        digests.update({f"scenes/{p.id}/{k}": v for k, v in rec["digests"].items()})
+        splits[p.split].append({"id": p.id, "family": p.family, "seed": p.seed, "samples": rec["samples"]})
+    manifest = {"format": FORMAT, "config": cfg.to_dict(), "seed": cfg.seed, "splits": splits,
+                "num_files": len(digests), "content_sha256": content_sha256(digests), "versions": versions()}
+    atomic_json(out / "manifest.json", manifest)
+    return manifest
+
+
+def verify(out: Path) -> dict:
+    """Recompute every digest and the content hash; raise NlosError on any mismatch or corruption."""
+    out = Path(out)
+    try:
+        manifest = json.loads((out / "manifest.json").read_text())
+    except FileNotFoundError:
+        raise NlosError(f"{out}: no manifest.json (dataset incomplete; rerun nlos generate)") from None
+    except json.JSONDecodeError:
+        raise NlosError(f"{out}/manifest.json: corrupted (invalid JSON)") from None
+    if manifest.get("format") != FORMAT:
+        raise NlosError(f"{out}: format {manifest.get('format')!r}, this reader supports {FORMAT!r}")
+    digests = {}
+    for split in manifest["splits"].values():
+        for s in split:
+            rec = json.loads((out / "scenes" / s["id"] / "done.json").read_text())
+            for rel, dig in rec["digests"].items():
+                path = out / "scenes" / s["id"] / rel
+                if not path.exists():
+                    raise NlosError(f"{path}: missing dataset file")
+                if file_digest(path) != dig:
+                    raise NlosError(f"{path}: content does not match its digest (corrupted or edited)")
+                digests[f"scenes/{s['id']}/{rel}"] = dig
+    if content_sha256(digests) != manifest["content_sha256"]:
+        raise NlosError(f"{out}: content_sha256 mismatch")
+    return manifest
