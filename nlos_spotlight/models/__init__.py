@@ -1,0 +1,1 @@
+"""Networks: the Illumination Estimation Network (IEN) and the NLOS network."""

@@ -1,0 +1,36 @@
+"""NLOS network: ResNet-18 layer-for-layer size, heads, exposure invariance, gradients."""
+
+from __future__ import annotations
+
+import torch
+
+from nlos_spotlight.models.nlos_net import NLOSNet, NLOSNetConfig
+from nlos_spotlight.models.resnet import ResNet18
+
+
+def test_resnet18_has_torchvisions_parameter_count():
+    # torchvision.models.resnet18(): 11,689,512 parameters, of which the 1000-way fc holds 513,000
+    n = sum(p.numel() for p in ResNet18(3, "imagenet").parameters())
+    assert n == 11_689_512 - 513_000
+    assert ResNet18(3, "imagenet")(torch.zeros(2, 3, 64, 64)).shape == (2, 512)
+
+
+def test_heads_shapes_and_exposure_invariance():
+    torch.manual_seed(0)
+    net = NLOSNet().eval()
+    img = torch.rand(4, 32, 32, 3)
+    pos, logits = net(img)
+    assert pos.shape == (4, 2) and logits.shape == (4, 6)
+    pos2, logits2 = net(img * 37.0)  # a longer exposure changes nothing after normalization
+    assert torch.allclose(pos, pos2, atol=1e-5) and torch.allclose(logits, logits2, atol=1e-5)
+    heads = [m for m in net.position_head if isinstance(m, torch.nn.Linear)]
+    assert len(heads) == 4  # three hidden fully connected layers, then the last one
+
+
+def test_background_subtraction_option_and_gradients():
+    torch.manual_seed(0)
+    net = NLOSNet(NLOSNetConfig(background_subtract=True))
+    img, bg = torch.rand(2, 32, 32, 3), torch.rand(2, 32, 32, 3)
+    pos, logits = net(img, bg)
+    (pos.sum() + logits.sum()).backward()
+    assert all(p.grad is not None and torch.isfinite(p.grad).all() for p in net.parameters() if p.requires_grad)
