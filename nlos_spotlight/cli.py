@@ -101,6 +101,19 @@ def cmd_generate(args: argparse.Namespace) -> None:
     console.print(f"shard {rec['shard']}: {len(rec['scenes'])} scenes in {rec['seconds']:.1f} s; dataset {state}")
 
 
+def cmd_train(args: argparse.Namespace) -> None:
+    from .console import console
+    from .train.config import load_train_config
+    from .train.loop import train
+
+    cfg = load_train_config(args.config)
+    if args.seed is not None:
+        cfg.seed = args.seed
+    tr = train(cfg, args.data, args.out, resume=args.resume, progress=not args.quiet)
+    if tr.rank == 0:
+        console.print(f"trained {tr.step} steps; run in {Path(args.out).resolve()} (config.json, metrics.csv, final.pt)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="nlos", description="NLOS human localization with a projector spotlight")
     sub = p.add_subparsers(dest="command", required=True)
@@ -127,6 +140,14 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--seed", type=int, help="override the config's master seed")
     g.add_argument("--quiet", action="store_true", help="no progress bar (also NLOS_QUIET=1 or CI=true)")
     g.set_defaults(func=cmd_generate)
+    t = sub.add_parser("train", help="train the IEN and the NLOS network end to end (torchrun for several processes)")
+    t.add_argument("config", help="preset (tiny, small, paper) or a YAML file of TrainConfig fields")
+    t.add_argument("--data", required=True, help="dataset directory from nlos generate")
+    t.add_argument("--out", required=True, help="run directory")
+    t.add_argument("--resume", action="store_true", help="continue from RUN/checkpoint.pt")
+    t.add_argument("--seed", type=int, help="override the config's seed")
+    t.add_argument("--quiet", action="store_true", help="no progress bar (also NLOS_QUIET=1 or CI=true)")
+    t.set_defaults(func=cmd_train)
     return p
 
 

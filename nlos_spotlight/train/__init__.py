@@ -1,0 +1,1 @@
+"""End-to-end training: IEN -> spot -> image formation through the stored transport -> NLOS network."""

@@ -1,0 +1,179 @@
+"""``nlos train``: end-to-end training of the IEN and the NLOS network through the image formation.
+
+Spot choice: straight-through Gumbel-softmax. The forward pass uses the one-hot spot of
+argmax(logits + Gumbel noise), so every training image is a single-spot image as at inference; the
+backward pass uses the gradient of the tempered softmax. Because the image is exactly linear in y
+(stored transport), d loss / d y_t = <d loss / d image, image_t> is exact for every candidate t;
+the estimator's only bias is the softmax relaxation. We chose it over REINFORCE because that
+exact per-candidate gradient is available for free here, and its variance is far lower.
+
+Runs on CPU or one GPU; under ``torchrun`` it trains data-parallel (``torch.distributed``,
+gloo on CPU, nccl on GPU) with each rank drawing different scenes. Checkpoints carry the models,
+the optimizer, every RNG state, the config and package versions, and resume bit-exactly.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import os
+import random
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from ..errors import NlosError
+from ..models.ien import IEN
+from ..models.nlos_net import NLOSNet
+from ..render.sensor import SensorConfig
+from .config import TrainConfig
+from .imaging import add_sensor_noise, form_images
+from .scenes import SceneTensors, load_split
+
+
+def straight_through_spot(logits: torch.Tensor, landed: torch.Tensor, tau: float,
+                          generator: torch.Generator | None) -> torch.Tensor:
+    """One-hot y (T,) in the forward pass, softmax((logits + g) / tau) gradient in the backward pass."""
+    logits = logits.masked_fill(~landed, float("-inf"))
+    u = torch.rand(logits.shape, generator=generator, device=logits.device).clamp(1e-10, 1 - 1e-10)
+    soft = torch.softmax((logits - torch.log(-torch.log(u))) / tau, dim=0)
+    hard = F.one_hot(soft.argmax(), len(soft)).to(soft.dtype)
+    return hard + soft - soft.detach()
+
+
+class Trainer:
+    """State and steps of one run (see module docstring)."""
+
+    def __init__(self, cfg: TrainConfig, scenes: list[SceneTensors], out: Path, sensor: SensorConfig | None = None):
+        self.cfg, self.out = cfg, out
+        self.rank = int(os.environ.get("RANK", 0))
+        self.world = int(os.environ.get("WORLD_SIZE", 1))
+        cuda = cfg.device == "cuda" or (cfg.device == "auto" and torch.cuda.is_available())
+        self.device = torch.device(f"cuda:{int(os.environ.get('LOCAL_RANK', 0))}" if cuda else "cpu")
+        self.scenes = [s.to(self.device) for s in scenes]
+        h, w = scenes[0].ambient.shape[:2]
+        self.sensor = sensor or SensorConfig(width=w, height=h)
+        torch.manual_seed(cfg.seed)
+        ien_cfg = dataclasses.replace(cfg.ien, in_features=scenes[0].x.shape[1])
+        self.ien, self.net = IEN(ien_cfg).to(self.device), NLOSNet(cfg.net).to(self.device)
+        self.ien_ddp, self.net_ddp = self.ien, self.net
+        if self.world > 1:
+            from torch.nn.parallel import DistributedDataParallel as DDP
+
+            self.ien_ddp, self.net_ddp = DDP(self.ien), DDP(self.net)
+        self.opt = torch.optim.Adam([{"params": self.ien.parameters(), "lr": cfg.lr * cfg.ien_lr_scale},
+                                     {"params": self.net.parameters(), "lr": cfg.lr}],
+                                    lr=cfg.lr, weight_decay=cfg.weight_decay)
+        self.gen = torch.Generator(device=self.device).manual_seed(cfg.seed * 1000 + self.rank)
+        self.step = 0
+
+    # ------------------------------------------------------------ one step
+    def loss_on(self, s: SceneTensors, idx: torch.Tensor, train: bool = True) -> dict:
+        logits = self.ien_ddp(s.x, s.edge_index, s.faces)
+        if train:
+            y = straight_through_spot(logits, s.landed, self.cfg.tau, self.gen)
+        else:
+            y = F.one_hot(logits.masked_fill(~s.landed, float("-inf")).argmax(), len(logits)).float()
+        images, person_free = form_images(s, idx, y)
+        if self.cfg.sensor_noise:
+            images = add_sensor_noise(images, person_free, self.sensor, self.gen)
+        pos, post = self.net_ddp(images)
+        pos_loss = F.mse_loss(pos, s.target[idx])
+        cls_loss = F.cross_entropy(post, s.posture[idx])
+        err = (pos - s.target[idx]).norm(dim=1)
+        return {"loss": self.cfg.position_weight * pos_loss + self.cfg.posture_weight * cls_loss,
+                "pos_loss": pos_loss, "cls_loss": cls_loss, "err_cm": 100 * err.mean(),
+                "acc": (post.argmax(1) == s.posture[idx]).float().mean(), "spot": y.argmax(),
+                "pred": pos, "logits": post}
+
+    def train_step(self) -> dict:
+        self.ien.train()
+        self.net.train()
+        si = int(torch.randint(len(self.scenes), (1,), generator=self.gen, device=self.device))
+        s = self.scenes[si]
+        idx = torch.randint(s.num_samples, (self.cfg.batch_size,), generator=self.gen, device=self.device)
+        out = self.loss_on(s, idx)
+        self.opt.zero_grad()
+        out["loss"].backward()
+        self.opt.step()
+        self.step += 1
+        return {k: float(v.detach()) for k, v in out.items() if k not in ("pred", "logits")} | {"scene": si}
+
+    # ------------------------------------------------------------ checkpoints
+    def state(self) -> dict:
+        from ..data.generate import versions
+
+        return {"step": self.step, "ien": self.ien.state_dict(), "net": self.net.state_dict(),
+                "opt": self.opt.state_dict(), "gen": self.gen.get_state(), "torch_rng": torch.get_rng_state(),
+                "numpy_rng": np.random.get_state(), "python_rng": random.getstate(),
+                "config": self.cfg.to_dict(), "versions": versions(), "in_features": self.ien.cfg.in_features}
+
+    def save(self, path: Path) -> None:
+        if self.rank != 0:
+            return
+        tmp = path.with_name(f".{path.name}.tmp")
+        torch.save(self.state(), tmp)
+        os.replace(tmp, path)
+
+    def load(self, path: Path) -> None:
+        try:
+            st = torch.load(path, map_location=self.device, weights_only=False)
+            self.ien.load_state_dict(st["ien"])
+            self.net.load_state_dict(st["net"])
+            self.opt.load_state_dict(st["opt"])
+        except Exception as exc:  # torch raises many types on torn or foreign files
+            raise NlosError(f"{path}: corrupted or incompatible checkpoint ({type(exc).__name__})") from None
+        self.gen.set_state(st["gen"])
+        torch.set_rng_state(st["torch_rng"])
+        np.random.set_state(st["numpy_rng"])
+        random.setstate(st["python_rng"])
+        self.step = st["step"]
+
+
+def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool = False,
+          progress: bool = True) -> Trainer:
+    """Train (or resume) a run in ``out``: config.json, metrics.csv, checkpoint.pt, final.pt."""
+    from ..console import QUIET, console
+
+    out = Path(out)
+    distributed = int(os.environ.get("WORLD_SIZE", 1)) > 1
+    if distributed and not torch.distributed.is_initialized():
+        backend = "nccl" if torch.cuda.is_available() and cfg.device != "cpu" else "gloo"
+        torch.distributed.init_process_group(backend)
+    out.mkdir(parents=True, exist_ok=True)
+    ckpt = out / "checkpoint.pt"
+    if (out / "config.json").exists() and not resume and ckpt.exists():
+        raise NlosError(f"{out} holds a run; pass --resume to continue it or choose another --out")
+    scenes = load_split(data_dir, "train", cfg.ien_features)
+    tr = Trainer(cfg, scenes, out)
+    if resume and ckpt.exists():
+        tr.load(ckpt)
+    if tr.rank == 0:
+        (out / "config.json").write_text(json.dumps({"train": cfg.to_dict(), "data": str(data_dir)}, indent=1))
+    metrics = out / "metrics.csv"
+    fields = ["step", "loss", "pos_loss", "cls_loss", "err_cm", "acc", "spot", "scene", "seconds"]
+    if tr.rank == 0 and (not metrics.exists() or tr.step == 0):
+        with metrics.open("w", newline="") as f:
+            csv.writer(f).writerow(fields)
+    t0 = time.perf_counter()
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    cols = (TextColumn("train"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(), TextColumn("{task.description}"))
+    with Progress(*cols, console=console, disable=QUIET or not progress or tr.rank != 0) as bar:
+        task = bar.add_task("", total=cfg.steps, completed=tr.step)
+        while tr.step < cfg.steps:
+            row = tr.train_step()
+            bar.update(task, advance=1, description=f"loss {row['loss']:.3f} err {row['err_cm']:.0f} cm")
+            if tr.rank == 0 and (tr.step % cfg.log_every == 0 or tr.step == cfg.steps):
+                with metrics.open("a", newline="") as f:
+                    csv.writer(f).writerow([tr.step] + [row[k] for k in fields[1:-1]] + [time.perf_counter() - t0])
+            if tr.step % cfg.ckpt_every == 0 or tr.step == cfg.steps:
+                tr.save(ckpt)
+    tr.save(out / "final.pt")
+    if distributed:
+        torch.distributed.barrier()
+    return tr

@@ -1,0 +1,104 @@
+"""A dataset split in memory as tensors: per scene the IEN graph and static images, per sample the transport."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ..errors import NlosError
+from ..scene.format import TriMesh
+from ..scene.graph import mesh_to_graph, normalize_positions
+
+
+@dataclass
+class SceneTensors:
+    """One scene and its samples; T candidates, r transport rank, images (H, W, 3)."""
+
+    x: torch.Tensor
+    """(V, C) IEN vertex input: normalized camera-frame coordinates (+ normals)."""
+    edge_index: torch.Tensor
+    """(2, E) mesh edges, both directions."""
+    faces: torch.Tensor
+    """(T, 3) LOS mesh faces = spot candidates."""
+    landed: torch.Tensor
+    """(T,) bool, the candidate's spot reaches a surface."""
+    direct: torch.Tensor
+    """(T, H, W, 3) direct image per candidate."""
+    ambient: torch.Tensor
+    """(H, W, 3) ambient image."""
+    u: torch.Tensor
+    """(N, T, r) transport left factors of the N samples."""
+    v: torch.Tensor
+    """(N, r, H, W, 3) transport right factors."""
+    nlos_ambient: torch.Tensor
+    """(N, H, W, 3)."""
+    target: torch.Tensor
+    """(N, 2) floor position in the camera's ground frame (m): along the view, to the left."""
+    posture: torch.Tensor
+    """(N,) posture index."""
+    trajectory: torch.Tensor
+    """(N, 2) trajectory id and frame (-1 for static samples)."""
+    camera_xy: torch.Tensor
+    """(2,) camera floor position (m), world frame."""
+    forward_xy: torch.Tensor
+    """(2,) unit viewing direction on the floor, world frame."""
+
+    def to(self, device) -> "SceneTensors":
+        return SceneTensors(**{k: getattr(self, k).to(device) for k in self.__dataclass_fields__})
+
+    @property
+    def num_samples(self) -> int:
+        return len(self.posture)
+
+
+def ground_frame(pos_xy: np.ndarray, cam_xy: np.ndarray, fwd_xy: np.ndarray) -> np.ndarray:
+    """World floor points (N, 2) -> (along the view, to the left of it) relative to the camera."""
+    left = np.array([-fwd_xy[1], fwd_xy[0]])
+    rel = pos_xy - cam_xy
+    return np.stack([rel @ fwd_xy, rel @ left], axis=1)
+
+
+def load_scene_tensors(scene_dir: Path, features: list[str]) -> SceneTensors:
+    try:
+        st = np.load(scene_dir / "static.npz")
+        files = sorted((scene_dir / "samples").glob("*.npz"))
+        zs = [np.load(f) for f in files]
+    except Exception as exc:  # np.load raises several types on torn files
+        raise NlosError(f"{scene_dir}: corrupted dataset file ({type(exc).__name__})") from None
+    pose = st["camera_to_world"]
+    graph = mesh_to_graph(TriMesh(st["los_vertices"], st["los_faces"]), frame=np.linalg.inv(pose))
+    x = normalize_positions(torch.as_tensor(graph.pos, dtype=torch.float32))[0]
+    if "normals" in features:
+        x = torch.cat([x, torch.as_tensor(graph.normals, dtype=torch.float32)], dim=1)
+    fwd = -pose[:2, 2]
+    fwd = fwd / np.linalg.norm(fwd)
+    cam = pose[:2, 3]
+    f32 = lambda a: torch.as_tensor(np.asarray(a), dtype=torch.float32)
+    return SceneTensors(
+        x=x, edge_index=torch.as_tensor(np.asarray(graph.edge_index), dtype=torch.long),
+        faces=torch.as_tensor(st["los_faces"], dtype=torch.long), landed=torch.as_tensor(st["spot_landed"]),
+        direct=f32(st["direct"]), ambient=f32(st["ambient"]),
+        u=f32(np.stack([z["transport_u"] for z in zs])), v=f32(np.stack([z["transport_v"] for z in zs])),
+        nlos_ambient=f32(np.stack([z["nlos_ambient"] for z in zs])),
+        target=f32(ground_frame(np.stack([z["position"] for z in zs]), cam, fwd)),
+        posture=torch.as_tensor([int(z["posture"]) for z in zs]),
+        trajectory=torch.as_tensor([[int(z["trajectory"]), int(z["frame"])] for z in zs]),
+        camera_xy=f32(cam), forward_xy=f32(fwd))
+
+
+def load_split(data_dir: str | Path, split: str, features: list[str]) -> list[SceneTensors]:
+    data_dir = Path(data_dir)
+    try:
+        manifest = json.loads((data_dir / "manifest.json").read_text())
+    except FileNotFoundError:
+        raise NlosError(f"{data_dir}: no manifest.json (not a finished nlos dataset)") from None
+    except json.JSONDecodeError:
+        raise NlosError(f"{data_dir}/manifest.json: corrupted (invalid JSON)") from None
+    scenes = manifest["splits"].get(split, [])
+    if not scenes:
+        raise NlosError(f"{data_dir}: split '{split}' is empty")
+    return [load_scene_tensors(data_dir / "scenes" / s["id"], features) for s in scenes]
