@@ -37,6 +37,23 @@ def save_png(img: np.ndarray, path: Path, signed: bool = False) -> None:
     plt.imsave(path, np.clip(img / s, 0, 1) ** (1 / 2.2))
 
 
+def _overview(out: Path, names: list[str]) -> None:
+    """One figure of every component's PNG, side by side."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.image as mpimg
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(names), figsize=(2.6 * len(names), 2.9))
+    for ax, name in zip(axes, names):
+        ax.imshow(mpimg.imread(out / f"{name}.png"))
+        ax.set_title(name)
+        ax.axis("off")
+    fig.savefig(out / "overview.png", dpi=80, bbox_inches="tight")
+    plt.close(fig)
+
+
 def main(argv=None) -> None:
     import torch
 
@@ -72,6 +89,7 @@ def main(argv=None) -> None:
         save_png(a, out / f"{name}.png", signed=name == "nlos_ambient")
         np.save(out / f"{name}.npy", a.astype(np.float32))
         summary[name] = {"sum": float(a.sum()), "max": float(np.abs(a).max()), "mean": float(a.mean())}
+    _overview(out, ["direct", "ambient", "nlos", "nlos_ambient", "total", "sensor"])
     table = "\n".join(f"  {k:16s} sum {v['sum']:12.5g}   max|.| {v['max']:11.4g}" for k, v in summary.items())
     ratio = summary["nlos"]["sum"] / max(summary["direct"]["sum"], 1e-30)
     run = {"version": __version__, "python": platform.python_version(), "torch": torch.__version__,
@@ -83,7 +101,7 @@ def main(argv=None) -> None:
     console.print(table)
     console.print(f"  nlos / direct = {ratio:.3g}; sensor exposure {exposure:.3g} s; "
                   f"precompute {t_pre:.2f} s, render {t_render:.2f} s")
-    console.print(f"report: {out.resolve()} (PNG per component, run.json)")
+    console.print(f"report: {out.resolve()} (overview.png, a PNG and .npy per component, run.json)")
 
 
 if __name__ == "__main__":
