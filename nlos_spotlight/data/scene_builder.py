@@ -112,7 +112,9 @@ class SceneBuilder:
         if self.plan.split == "test" and self.cfg.trajectories_per_test_scene > 0:
             valid = person_positions(scene, rng, 2000)
             for j in range(self.cfg.trajectories_per_test_scene):
-                path = walking_trajectory(rng, valid, self.cfg.trajectory_frames, self.cfg.frame_rate_hz)
+                hr = scene.hidden_region
+                path = walking_trajectory(rng, valid, self.cfg.trajectory_frames, self.cfg.frame_rate_hz,
+                                          bounds=(np.asarray(hr.min), np.asarray(hr.max)))
                 base = sample_body_params(rng, POSTURES[rng.integers(5)])  # a named posture per walk
                 for f, (x, y, heading) in enumerate(path):
                     params = _with(base, facing_deg=float(heading), pose_seed=int(base.pose_seed + f))

@@ -1,0 +1,55 @@
+"""Dataset generation speed on this machine: scenes per minute and samples per second.
+
+Times a whole ``nlos generate`` run of a preset (default ``tiny``) into a temporary directory, and
+its parts: room generation, per-scene precompute (LOS mesh, decimation, candidates, direct images)
+and per-sample work (posed body, transport to every candidate, low-rank factorization).
+
+    python benchmarks/generate_speed.py [--preset tiny] [--scenes 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import tempfile
+import time
+from pathlib import Path
+
+import torch
+
+from nlos_spotlight.data.config import load_config
+from nlos_spotlight.data.generate import generate, plan
+from nlos_spotlight.data.scene_builder import SceneBuilder
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--preset", default="tiny")
+    ap.add_argument("--scenes", type=int, default=3, help="train scenes to build (val/test set to 0)")
+    args = ap.parse_args()
+    cfg = dataclasses.replace(load_config(args.preset), train_scenes=args.scenes, val_scenes=0, test_scenes=0)
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp)
+        # parts, on the first scene
+        p = plan(cfg)[0]
+        from nlos_spotlight.world.rooms import generate_room
+
+        t = time.perf_counter()
+        b = SceneBuilder(cfg, p, out / "parts")
+        generate_room(p.seed, b._room_config())
+        t_room = time.perf_counter() - t
+        # the whole run
+        t = time.perf_counter()
+        generate(cfg, out / "data", progress=False)
+        total = time.perf_counter() - t
+    n_samples = cfg.train_scenes * cfg.samples_per_scene
+    print(f"preset {cfg.name}: {cfg.train_scenes} scenes x {cfg.samples_per_scene} samples at "
+          f"{cfg.resolution}x{cfg.resolution}, LOS mesh {cfg.los_vertices} vertices, "
+          f"{torch.get_num_threads()} torch threads")
+    print(f"room generation: {t_room:.2f} s per room")
+    print(f"whole run: {total:.1f} s -> {cfg.train_scenes / total * 60:.2f} scenes/min, "
+          f"{n_samples / total:.2f} samples/s (each sample: the nlos image for every candidate spot)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,1 @@
+"""The synthetic world: procedural rooms and hidden people (DESIGN section 7)."""

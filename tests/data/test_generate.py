@@ -1,0 +1,141 @@
+"""``nlos generate``: determinism, shards that merge, resume after a kill, corruption detection."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nlos_spotlight.data.config import DatasetConfig, load_config
+from nlos_spotlight.data.generate import finalize, generate, plan, verify
+from nlos_spotlight.errors import NlosError
+
+MICRO = dict(name="micro", seed=3, train_scenes=2, val_scenes=0, test_scenes=1, samples_per_scene=3,
+             trajectories_per_test_scene=1, trajectory_frames=3, resolution=12, los_vertices=40,
+             transport_rank=8, body_faces=600, pixel_samples=1, transport_pixel_samples=1, spot_samples=4,
+             person_samples=48)
+
+
+def micro() -> DatasetConfig:
+    return DatasetConfig(**MICRO)
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    out = tmp_path_factory.mktemp("ref")
+    generate(micro(), out, progress=False)
+    return out, json.loads((out / "manifest.json").read_text())
+
+
+def test_complete_and_verifiable(reference):
+    out, manifest = reference
+    assert manifest["format"] == "nlos-dataset/1" and manifest["config"]["seed"] == 3
+    assert verify(out)["content_sha256"] == manifest["content_sha256"]
+    ids = {s["id"] for split in manifest["splits"].values() for s in split}
+    assert len(ids) == 3 and all(i.startswith(("train", "test")) for i in ids)
+    test_scene = out / "scenes" / manifest["splits"]["test"][0]["id"]
+    assert len(list((test_scene / "samples").glob("*.npz"))) == 3 + 3  # static + one 3-frame walk
+    z = np.load(test_scene / "samples" / "00000.npz")
+    st = np.load(test_scene / "static.npz")
+    t = st["aim_points"].shape[0]
+    assert z["transport_u"].shape == (t, 8) and z["transport_v"].shape == (8, 12, 12, 3)
+    assert st["direct"].shape == (t, 12, 12, 3) and st["los_faces"].shape == (t, 3)
+
+
+def test_same_config_same_content(reference, tmp_path):
+    out, manifest = reference
+    generate(micro(), tmp_path, progress=False)
+    assert json.loads((tmp_path / "manifest.json").read_text())["content_sha256"] == manifest["content_sha256"]
+
+
+def test_shards_merge_to_the_same_content(reference, tmp_path):
+    _, manifest = reference
+    parts = [tmp_path / "a", tmp_path / "b"]
+    for i, d in enumerate(parts):
+        generate(micro(), d, shard=(i, 2), progress=False)
+        assert not (d / "manifest.json").exists()  # each part alone is incomplete
+    merged = tmp_path / "merged"
+    for d in parts:
+        shutil.copytree(d, merged, dirs_exist_ok=True)
+    finalize(micro(), merged)
+    assert json.loads((merged / "manifest.json").read_text())["content_sha256"] == manifest["content_sha256"]
+
+
+def test_resume_after_kill(reference, tmp_path):
+    _, manifest = reference
+    cfg = tmp_path / "micro.yaml"
+    cfg.write_text("\n".join(f"{k}: {v}" for k, v in MICRO.items() if k != "name") + "\n")
+    out = tmp_path / "data"
+    cmd = [sys.executable, "-m", "nlos_spotlight.cli", "generate", str(cfg), "--out", str(out), "--quiet"]
+    env = {**os.environ, "NLOS_QUIET": "1"}
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 300
+    while time.time() < deadline and len(list(out.glob("scenes/*/samples/*.npz"))) < 2:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert not (out / "manifest.json").exists(), "killed too late to test resuming"
+    res = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    m = json.loads((out / "manifest.json").read_text())
+    assert m["content_sha256"] != "" and len(list(out.rglob(".*.tmp*"))) == 0
+    assert len(list(out.glob("scenes/*/samples/*.npz"))) == 3 + 3 + 6
+    assert m["config"] == manifest["config"]  # the YAML file is named micro.yaml: same config
+    assert m["content_sha256"] == manifest["content_sha256"]
+
+
+def test_other_config_refused(reference):
+    out, _ = reference
+    other = micro()
+    other.samples_per_scene = 4
+    with pytest.raises(NlosError, match="another config.*samples_per_scene"):
+        generate(other, out, progress=False)
+
+
+def test_corruption_detected(reference, tmp_path):
+    out, manifest = reference
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    victim = next(copy.glob("scenes/train-*/samples/00001.npz"))
+    victim.write_bytes(victim.read_bytes()[:200])
+    with pytest.raises(NlosError, match="corrupted"):
+        verify(copy)
+
+
+def test_split_by_scene_balanced_postures_positions(reference):
+    out, manifest = reference
+    from nlos_spotlight.scene import load_scene
+
+    for split in manifest["splits"].values():
+        for s in split:
+            d = out / "scenes" / s["id"]
+            hr = load_scene(d).hidden_region
+            post = []
+            for p in sorted((d / "samples").glob("*.npz")):
+                z = np.load(p)
+                assert np.all(z["position"] >= hr.min - 1e-9) and np.all(z["position"] <= hr.max + 1e-9)
+                if int(z["trajectory"]) < 0:
+                    post.append(int(z["posture"]))
+            assert len(set(post)) == len(post)  # 3 samples, 3 different postures (balanced cycle)
+    assert {p.split for p in plan(micro())} == {"train", "test"}
+
+
+def test_presets_and_yaml_errors(tmp_path):
+    assert load_config("tiny").train_scenes >= 1 and load_config("small").samples_per_scene > 6
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("resolutin: 32\n")
+    with pytest.raises(NlosError, match="unknown key 'resolutin'"):
+        load_config(str(bad))
+    bad.write_text("resolution: 100000\n")
+    with pytest.raises(NlosError, match="absurd"):
+        load_config(str(bad))
+    with pytest.raises(NlosError, match="neither a preset"):
+        load_config(str(tmp_path / "missing.yaml"))
