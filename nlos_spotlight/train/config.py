@@ -37,6 +37,10 @@ class TrainConfig:
     """Weight of the position MSE (m^2) in the loss."""
     posture_weight: float = 1.0
     """Weight of the posture cross-entropy."""
+    arch: str = "resnet18"
+    """NLOS network architecture (``models.registry.NETWORKS``: resnet18, or a baseline)."""
+    policy: str = "ien"
+    """Spot policy: 'ien' (learned end to end) or a fixed one of ``lighting.POLICIES`` (IEN not trained)."""
     ien_features: list[str] = field(default_factory=lambda: ["normals"])
     """Extra IEN vertex features besides coordinates: 'normals'."""
     ien: IENConfig = field(default_factory=IENConfig)

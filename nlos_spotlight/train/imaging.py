@@ -10,12 +10,25 @@ from __future__ import annotations
 
 import torch
 
+from ..errors import NlosError
 from ..render.sensor import SensorConfig, auto_exposure
 from .scenes import SceneTensors
 
 
-def form_images(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """Noise-free images (B, H, W, 3) of samples ``idx`` under spot vector y (T,), and the person-free image."""
+def form_images(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor | None,
+                mode: str = "spot") -> tuple[torch.Tensor, torch.Tensor]:
+    """Noise-free images (B, H, W, 3) of samples ``idx`` and the person-free image (H, W, 3).
+
+    ``mode`` 'spot': projector on spot vector y (T,); 'flash': the stored flash illumination;
+    'ambient': projector off (y unused).
+    """
+    if mode == "ambient":
+        return s.ambient + s.nlos_ambient[idx], s.ambient
+    if mode == "flash":
+        if s.flash_direct is None or s.flash_nlos is None:
+            raise NlosError(f"{s.scene_dir or 'scene'}: the dataset stores no flash images (regenerate it)")
+        static = s.flash_direct + s.ambient
+        return static + s.flash_nlos[idx] + s.nlos_ambient[idx], static
     static = torch.einsum("t,thwc->hwc", y, s.direct) + s.ambient
     nlos = torch.einsum("t,btr,brhwc->bhwc", y, s.u[idx], s.v[idx])
     return static + nlos + s.nlos_ambient[idx], static

@@ -28,11 +28,26 @@ import torch.nn.functional as F
 
 from ..errors import NlosError
 from ..models.ien import IEN
-from ..models.nlos_net import NLOSNet
+from ..models.registry import build_network
 from ..render.sensor import SensorConfig
 from .config import TrainConfig
 from .imaging import add_sensor_noise, form_images
 from .scenes import SceneTensors, load_split
+
+
+CHECKPOINT_FORMAT = "nlos-checkpoint/1"
+
+
+def fixed_illuminations(cfg: TrainConfig, scenes: list[SceneTensors]):
+    """Per-scene illumination of a fixed policy (None for the learned 'ien' policy)."""
+    if cfg.policy == "ien":
+        return None
+    from ..lighting import POLICIES
+
+    if cfg.policy not in POLICIES:
+        raise NlosError(f"config: unknown policy '{cfg.policy}' (choose from ien, {', '.join(POLICIES)})")
+    fn = POLICIES[cfg.policy]
+    return [fn(s, Path(s.scene_dir), np.random.default_rng([cfg.seed, i])) for i, s in enumerate(scenes)]
 
 
 def straight_through_spot(logits: torch.Tensor, landed: torch.Tensor, tau: float,
@@ -59,26 +74,39 @@ class Trainer:
         self.sensor = sensor or SensorConfig(width=w, height=h)
         torch.manual_seed(cfg.seed)
         ien_cfg = dataclasses.replace(cfg.ien, in_features=scenes[0].x.shape[1])
-        self.ien, self.net = IEN(ien_cfg).to(self.device), NLOSNet(cfg.net).to(self.device)
+        self.ien, self.net = IEN(ien_cfg).to(self.device), build_network(cfg.arch, cfg.net).to(self.device)
+        self.image_shape = (h, w)
+        self.fixed = fixed_illuminations(cfg, scenes)
         self.ien_ddp, self.net_ddp = self.ien, self.net
         if self.world > 1:
             from torch.nn.parallel import DistributedDataParallel as DDP
 
             self.ien_ddp, self.net_ddp = DDP(self.ien), DDP(self.net)
-        self.opt = torch.optim.Adam([{"params": self.ien.parameters(), "lr": cfg.lr * cfg.ien_lr_scale},
-                                     {"params": self.net.parameters(), "lr": cfg.lr}],
+        groups = [{"params": self.net.parameters(), "lr": cfg.lr}]
+        if self.fixed is None:  # a fixed policy leaves the IEN untrained
+            groups.insert(0, {"params": self.ien.parameters(), "lr": cfg.lr * cfg.ien_lr_scale})
+        self.opt = torch.optim.Adam(groups,
                                     lr=cfg.lr, weight_decay=cfg.weight_decay)
         self.gen = torch.Generator(device=self.device).manual_seed(cfg.seed * 1000 + self.rank)
         self.step = 0
 
     # ------------------------------------------------------------ one step
-    def loss_on(self, s: SceneTensors, idx: torch.Tensor, train: bool = True) -> dict:
+    def illumination(self, s: SceneTensors, train: bool) -> tuple[torch.Tensor | None, str]:
+        """(spot vector y (T,) or None, mode) for scene ``s``: the IEN's choice or the fixed policy's."""
+        if self.fixed is not None:
+            ill = self.fixed[self.scene_index(s)]
+            return ill.spot_vector(len(s.faces), self.device), ill.mode
         logits = self.ien_ddp(s.x, s.edge_index, s.faces)
         if train:
-            y = straight_through_spot(logits, s.landed, self.cfg.tau, self.gen)
-        else:
-            y = F.one_hot(logits.masked_fill(~s.landed, float("-inf")).argmax(), len(logits)).float()
-        images, person_free = form_images(s, idx, y)
+            return straight_through_spot(logits, s.landed, self.cfg.tau, self.gen), "spot"
+        return F.one_hot(logits.masked_fill(~s.landed, float("-inf")).argmax(), len(logits)).float(), "spot"
+
+    def scene_index(self, s: SceneTensors) -> int:
+        return next(i for i, t in enumerate(self.scenes) if t is s)
+
+    def loss_on(self, s: SceneTensors, idx: torch.Tensor, train: bool = True) -> dict:
+        y, mode = self.illumination(s, train)
+        images, person_free = form_images(s, idx, y, mode)
         if self.cfg.sensor_noise:
             images = add_sensor_noise(images, person_free, self.sensor, self.gen)
         pos, post = self.net_ddp(images)
@@ -87,7 +115,8 @@ class Trainer:
         err = (pos - s.target[idx]).norm(dim=1)
         return {"loss": self.cfg.position_weight * pos_loss + self.cfg.posture_weight * cls_loss,
                 "pos_loss": pos_loss, "cls_loss": cls_loss, "err_cm": 100 * err.mean(),
-                "acc": (post.argmax(1) == s.posture[idx]).float().mean(), "spot": y.argmax(),
+                "acc": (post.argmax(1) == s.posture[idx]).float().mean(),
+                "spot": y.argmax() if y is not None else torch.tensor(-1),
                 "pred": pos, "logits": post}
 
     def train_step(self) -> dict:
@@ -110,7 +139,8 @@ class Trainer:
         return {"step": self.step, "ien": self.ien.state_dict(), "net": self.net.state_dict(),
                 "opt": self.opt.state_dict(), "gen": self.gen.get_state(), "torch_rng": torch.get_rng_state(),
                 "numpy_rng": np.random.get_state(), "python_rng": random.getstate(),
-                "config": self.cfg.to_dict(), "versions": versions(), "in_features": self.ien.cfg.in_features}
+                "config": self.cfg.to_dict(), "versions": versions(), "in_features": self.ien.cfg.in_features,
+                "image_shape": list(self.image_shape), "format": CHECKPOINT_FORMAT}
 
     def save(self, path: Path) -> None:
         if self.rank != 0:

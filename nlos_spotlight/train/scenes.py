@@ -46,9 +46,16 @@ class SceneTensors:
     """(2,) camera floor position (m), world frame."""
     forward_xy: torch.Tensor
     """(2,) unit viewing direction on the floor, world frame."""
+    flash_direct: torch.Tensor | None = None
+    """(H, W, 3) person-free image under the flash (datasets that store it), else None."""
+    flash_nlos: torch.Tensor | None = None
+    """(N, H, W, 3) the person's light under the flash, else None."""
+    scene_dir: str = ""
+    """Where the scene lives on disk ('' for scenes built in memory)."""
 
     def to(self, device) -> "SceneTensors":
-        return SceneTensors(**{k: getattr(self, k).to(device) for k in self.__dataclass_fields__})
+        move = lambda v: v.to(device) if isinstance(v, torch.Tensor) else v
+        return SceneTensors(**{k: move(getattr(self, k)) for k in self.__dataclass_fields__})
 
     @property
     def num_samples(self) -> int:
@@ -87,7 +94,10 @@ def load_scene_tensors(scene_dir: Path, features: list[str]) -> SceneTensors:
         target=f32(ground_frame(np.stack([z["position"] for z in zs]), cam, fwd)),
         posture=torch.as_tensor([int(z["posture"]) for z in zs]),
         trajectory=torch.as_tensor([[int(z["trajectory"]), int(z["frame"])] for z in zs]),
-        camera_xy=f32(cam), forward_xy=f32(fwd))
+        camera_xy=f32(cam), forward_xy=f32(fwd),
+        flash_direct=f32(st["flash_direct"]) if "flash_direct" in st.files else None,
+        flash_nlos=f32(np.stack([z["flash_nlos"] for z in zs])) if zs and "flash_nlos" in zs[0].files else None,
+        scene_dir=str(scene_dir))
 
 
 def load_split(data_dir: str | Path, split: str, features: list[str]) -> list[SceneTensors]:

@@ -1,0 +1,22 @@
+"""Spot policies (DESIGN section 9): where the projector points in a scene, by name.
+
+``ien`` is the learned policy (``lighting.ien``, needs a trained IEN); the fixed ones are functions
+``(SceneTensors, scene_dir, rng) -> Illumination`` in :data:`POLICIES`.
+"""
+
+from __future__ import annotations
+
+from .base import MODES, Illumination, PolicyFn
+from .simple import ambient_only, random_spot
+
+POLICIES: dict[str, PolicyFn] = {"random": random_spot, "ambient": ambient_only}
+"""Fixed policy name -> function (the learned 'ien' policy is not here: it needs a checkpoint)."""
+
+try:  # geometry- and oracle-based policies
+    from .extra import EXTRA_POLICIES
+
+    POLICIES.update(EXTRA_POLICIES)
+except ImportError:  # pragma: no cover
+    pass
+
+__all__ = ["MODES", "POLICIES", "Illumination", "PolicyFn"]
