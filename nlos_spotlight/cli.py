@@ -114,6 +114,20 @@ def cmd_train(args: argparse.Namespace) -> None:
         console.print(f"trained {tr.step} steps; run in {Path(args.out).resolve()} (config.json, metrics.csv, final.pt)")
 
 
+def cmd_evaluate(args: argparse.Namespace) -> None:
+    import shlex
+
+    from .console import console
+    from .evaluate.experiment import run_all
+    from .evaluate.write import write_all
+
+    methods = [m.strip() for m in args.methods.split(",")] if args.methods else None
+    ev = run_all(Path(args.run_dir), Path(args.data), args.seeds, methods, progress=not args.quiet)
+    command = "nlos " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:] else "nlos evaluate"
+    md = write_all(ev, Path(args.data), Path(args.run_dir), Path(args.out), command)
+    console.print(f"report: {md.resolve()} (and report.html, raw.csv, summary.csv beside it)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="nlos", description="NLOS human localization with a projector spotlight")
     sub = p.add_subparsers(dest="command", required=True)
@@ -148,6 +162,14 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--seed", type=int, help="override the config's seed")
     t.add_argument("--quiet", action="store_true", help="no progress bar (also NLOS_QUIET=1 or CI=true)")
     t.set_defaults(func=cmd_train)
+    e = sub.add_parser("evaluate", help="the paper's tables and figures on held-out scenes (trains the baselines)")
+    e.add_argument("run_dir", help="run directory of ours (nlos train); baselines train under RUN/methods/")
+    e.add_argument("--data", required=True, help="dataset directory (its test split is evaluated)")
+    e.add_argument("--out", required=True, help="report directory")
+    e.add_argument("--seeds", type=int, default=1, help="training seeds per method (the run's seed, then +1, ...)")
+    e.add_argument("--methods", help="comma-separated subset of methods (default: all; ours always)")
+    e.add_argument("--quiet", action="store_true", help="no progress bar (also NLOS_QUIET=1 or CI=true)")
+    e.set_defaults(func=cmd_evaluate)
     return p
 
 

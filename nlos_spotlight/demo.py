@@ -1,12 +1,20 @@
-"""``make demo``: render the bundled example scene, one PNG per component, and report magnitudes.
+"""``make demo``: the whole system end to end at demo scale, then the report.
 
-    python -m nlos_spotlight.demo --out out/demo
+1. render the bundled example scene (one PNG per image component, magnitudes printed);
+2. ``nlos generate demo`` (procedural rooms, bodies, light transport);
+3. ``nlos train demo`` (IEN + ResNet-18 end to end through the stored transport);
+4. ``nlos evaluate`` (every baseline trained and compared on held-out rooms: Tables 1-3, Figs. 5-7).
+
+Every step resumes, so an interrupted demo continues where it stopped.
+
+    python -m nlos_spotlight.demo --out out/demo [--seeds N] [--render-only]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import time
 from importlib import resources
@@ -54,7 +62,7 @@ def _overview(out: Path, names: list[str]) -> None:
     plt.close(fig)
 
 
-def main(argv=None) -> None:
+def render_example(out: Path, seed: int) -> None:
     import torch
 
     from . import __version__
@@ -64,11 +72,6 @@ def main(argv=None) -> None:
     from .scene import load_scene
     from .scene.examples import SPOT_TARGET
 
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--out", default="out/demo")
-    ap.add_argument("--seed", type=int, default=0)
-    args = ap.parse_args(argv)
-    out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     scene = load_scene(bundled_scene())
     settings = RenderSettings()
@@ -82,7 +85,7 @@ def main(argv=None) -> None:
     cfg = SensorConfig(width=scene.camera.width, height=scene.camera.height)
     exposure = auto_exposure(r.render(r.spot_vector(0), components=("direct", "interreflection", "ambient")).image,
                              cfg)
-    noisy = sensor_capture(res.image, exposure, cfg, generator=torch.Generator().manual_seed(args.seed))
+    noisy = sensor_capture(res.image, exposure, cfg, generator=torch.Generator().manual_seed(seed))
     summary = {}
     for name, img in list(res.components.items()) + [("total", res.image), ("sensor", noisy.radiance)]:
         a = img.numpy()
@@ -94,14 +97,48 @@ def main(argv=None) -> None:
     ratio = summary["nlos"]["sum"] / max(summary["direct"]["sum"], 1e-30)
     run = {"version": __version__, "python": platform.python_version(), "torch": torch.__version__,
            "scene": str(bundled_scene()), "spot_target": SPOT_TARGET.tolist(), "settings": vars(settings),
-           "seed": args.seed, "exposure_s": exposure, "timing_s": {"precompute": t_pre, "render": t_render},
+           "seed": seed, "exposure_s": exposure, "timing_s": {"precompute": t_pre, "render": t_render},
            "components": summary}
     (out / "run.json").write_text(json.dumps(run, indent=1))
     console.print(f"[bold]nlos-spotlight demo[/bold]: example scene, spot at {SPOT_TARGET.tolist()}")
     console.print(table)
     console.print(f"  nlos / direct = {ratio:.3g}; sensor exposure {exposure:.3g} s; "
                   f"precompute {t_pre:.2f} s, render {t_render:.2f} s")
-    console.print(f"report: {out.resolve()} (overview.png, a PNG and .npy per component, run.json)")
+    console.print(f"rendered: {out.resolve()} (overview.png, a PNG and .npy per component, run.json)")
+
+
+def _step(title: str, argv: list[str]) -> None:
+    from .cli import main as nlos
+
+    console.rule(title)
+    t0 = time.perf_counter()
+    if nlos(argv) != 0:
+        raise SystemExit(f"demo: step failed: nlos {' '.join(argv)}")
+    console.print(f"{title}: {time.perf_counter() - t0:.0f} s")
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", default="out/demo")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seeds", type=int, default=1, help="training seeds per method in the evaluation")
+    ap.add_argument("--render-only", action="store_true", help="only step 1")
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    t0 = time.perf_counter()
+    console.rule("1/4 render the example scene")
+    render_example(out / "render", args.seed)
+    if args.render_only:
+        return
+    quiet = ["--quiet"] if os.environ.get("CI", "").lower() == "true" else []
+    _step("2/4 generate", ["generate", "demo", "--out", str(out / "data"), "--seed", str(args.seed), *quiet])
+    run = out / "run"
+    _step("3/4 train", ["train", "demo", "--data", str(out / "data"), "--out", str(run), "--seed", str(args.seed),
+                        *(["--resume"] if (run / "config.json").exists() else []), *quiet])
+    _step("4/4 evaluate", ["evaluate", str(run), "--data", str(out / "data"), "--out", str(out / "report"),
+                           "--seeds", str(args.seeds), *quiet])
+    console.print(f"[bold]demo done in {(time.perf_counter() - t0) / 60:.1f} min[/bold]; report: "
+                  f"{(out / 'report' / 'report.html').resolve()} (and report.md)")
 
 
 if __name__ == "__main__":

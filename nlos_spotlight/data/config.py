@@ -65,6 +65,8 @@ class DatasetConfig:
 
 PRESETS = {
     "tiny": DatasetConfig(),
+    "demo": DatasetConfig(name="demo", train_scenes=10, val_scenes=0, test_scenes=3, samples_per_scene=24,
+                          trajectories_per_test_scene=1, trajectory_frames=20, resolution=32, los_vertices=200),
     "small": DatasetConfig(name="small", train_scenes=16, val_scenes=4, test_scenes=6, samples_per_scene=36,
                            trajectories_per_test_scene=2, trajectory_frames=30, resolution=32, los_vertices=300,
                            person_samples=256),

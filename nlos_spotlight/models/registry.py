@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from typing import Callable
 
+import torch
 from torch import nn
 
 from ..errors import NlosError
@@ -24,8 +25,35 @@ except ImportError:  # pragma: no cover - while the baselines package is being w
     pass
 
 
-def build_network(arch: str, cfg: NLOSNetConfig | None = None) -> nn.Module:
-    """A freshly initialized network of architecture ``arch``."""
+class PositionScaled(nn.Module):
+    """Wraps a network so that its position head predicts standardized coordinates.
+
+    ``position = mean + std * head`` with the training set's target mean and std as buffers (saved
+    in every checkpoint): the head starts near the middle of the hidden region instead of at the
+    camera, several meters off, which would take hundreds of steps to unlearn.
+
+    Shapes:
+        images (B, H, W, 3) -> position (B, 2) m, posture logits (B, 6).
+    """
+
+    def __init__(self, net: nn.Module):
+        super().__init__()
+        self.net = net
+        self.register_buffer("position_mean", torch.zeros(2))
+        self.register_buffer("position_std", torch.ones(2))
+
+    def set_targets(self, targets: torch.Tensor) -> None:
+        """Standardize with the mean and std of the training targets (N, 2)."""
+        self.position_mean.copy_(targets.mean(0))
+        self.position_std.copy_(targets.std(0).clamp(min=0.05) if len(targets) > 1 else torch.ones(2))
+
+    def forward(self, images: torch.Tensor, *args, **kwargs):
+        pos, logits = self.net(images, *args, **kwargs)
+        return self.position_mean + self.position_std * pos, logits
+
+
+def build_network(arch: str, cfg: NLOSNetConfig | None = None) -> PositionScaled:
+    """A freshly initialized network of architecture ``arch``, position output standardized."""
     if arch not in NETWORKS:
         raise NlosError(f"network: unknown architecture '{arch}' (choose from {', '.join(NETWORKS)})")
-    return NETWORKS[arch](cfg or NLOSNetConfig())
+    return PositionScaled(NETWORKS[arch](cfg or NLOSNetConfig()))

@@ -75,6 +75,7 @@ class Trainer:
         torch.manual_seed(cfg.seed)
         ien_cfg = dataclasses.replace(cfg.ien, in_features=scenes[0].x.shape[1])
         self.ien, self.net = IEN(ien_cfg).to(self.device), build_network(cfg.arch, cfg.net).to(self.device)
+        self.net.set_targets(torch.cat([s.target for s in self.scenes]))
         self.image_shape = (h, w)
         self.fixed = fixed_illuminations(cfg, scenes)
         self.ien_ddp, self.net_ddp = self.ien, self.net

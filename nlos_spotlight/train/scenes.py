@@ -69,6 +69,15 @@ def ground_frame(pos_xy: np.ndarray, cam_xy: np.ndarray, fwd_xy: np.ndarray) -> 
     return np.stack([rel @ fwd_xy, rel @ left], axis=1)
 
 
+def graph_inputs(mesh: TriMesh, camera_to_world: np.ndarray, features: list[str]):
+    """IEN input of a LOS mesh: (V, 3 [+3]) normalized camera-frame coordinates [+ normals], (2, E) edges."""
+    graph = mesh_to_graph(mesh, frame=np.linalg.inv(camera_to_world))
+    x = normalize_positions(torch.as_tensor(graph.pos, dtype=torch.float32))[0]
+    if "normals" in features:
+        x = torch.cat([x, torch.as_tensor(graph.normals, dtype=torch.float32)], dim=1)
+    return x, torch.as_tensor(np.asarray(graph.edge_index), dtype=torch.long)
+
+
 def load_scene_tensors(scene_dir: Path, features: list[str]) -> SceneTensors:
     try:
         st = np.load(scene_dir / "static.npz")
@@ -77,16 +86,13 @@ def load_scene_tensors(scene_dir: Path, features: list[str]) -> SceneTensors:
     except Exception as exc:  # np.load raises several types on torn files
         raise NlosError(f"{scene_dir}: corrupted dataset file ({type(exc).__name__})") from None
     pose = st["camera_to_world"]
-    graph = mesh_to_graph(TriMesh(st["los_vertices"], st["los_faces"]), frame=np.linalg.inv(pose))
-    x = normalize_positions(torch.as_tensor(graph.pos, dtype=torch.float32))[0]
-    if "normals" in features:
-        x = torch.cat([x, torch.as_tensor(graph.normals, dtype=torch.float32)], dim=1)
+    x, edges = graph_inputs(TriMesh(st["los_vertices"], st["los_faces"]), pose, features)
     fwd = -pose[:2, 2]
     fwd = fwd / np.linalg.norm(fwd)
     cam = pose[:2, 3]
     f32 = lambda a: torch.as_tensor(np.asarray(a), dtype=torch.float32)
     return SceneTensors(
-        x=x, edge_index=torch.as_tensor(np.asarray(graph.edge_index), dtype=torch.long),
+        x=x, edge_index=edges,
         faces=torch.as_tensor(st["los_faces"], dtype=torch.long), landed=torch.as_tensor(st["spot_landed"]),
         direct=f32(st["direct"]), ambient=f32(st["ambient"]),
         u=f32(np.stack([z["transport_u"] for z in zs])), v=f32(np.stack([z["transport_v"] for z in zs])),

@@ -1,0 +1,146 @@
+"""``nlos evaluate RUN --data DIR --out REPORT [--seeds N]``: the paper's experiments on held-out scenes.
+
+Trains what is missing (every method of ``methods.METHODS`` at every seed, resumable), runs each on
+the test split under sensor noise, and writes Tables 1-3, Figures 5-7, the spot SNR against the
+oracle, ``raw.csv`` (every prediction), ``summary.csv`` (every table number per seed),
+``report.md``, ``report.html`` and ``evaluation.json`` (config, seeds, versions, timings).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ..errors import NlosError
+from ..train.checkpoint import load_trained
+from ..train.scenes import load_split
+from ..world.body import POSTURES
+from . import decimation as dec
+from .methods import METHODS, TABLE3, BY_NAME, Method, select
+from .metrics import COLUMNS, aggregate, fmt, per_class
+from .predictions import Predictions, evaluate_models, predict_scene
+from .runs import ensure_run, run_config, seeds_of
+
+PAPER = {"accuracy": 96.1, "error_cm": 8.10, "latency_ms": 7.0}
+"""The WACV 2024 paper's synthetic results (ours): posture accuracy %, mean error cm, ms per estimate."""
+
+
+@dataclass
+class Evaluation:
+    """Everything the report is made from."""
+
+    methods: list[Method]
+    seeds: list[int]
+    scene_ids: list[str]
+    preds: dict[str, dict[int, Predictions]] = field(default_factory=dict)
+    """method -> seed -> predictions on the test split."""
+    skipped: dict[str, str] = field(default_factory=dict)
+    """method -> why it was not run."""
+    decimation: dict = field(default_factory=dict)
+    """Fig. 7 numbers: ratios, accuracy and error (seeds, ratios), snap distances."""
+    snr: dict = field(default_factory=dict)
+    """method -> mean over scenes and seeds of (SNR of its spot / oracle SNR)."""
+    seconds: dict[str, float] = field(default_factory=dict)
+
+
+def _has_flash(data: Path, ids: list[str]) -> bool:
+    with np.load(data / "scenes" / ids[0] / "static.npz") as z:
+        return "flash_direct" in z.files
+
+
+def test_ids(data: Path) -> list[str]:
+    try:
+        manifest = json.loads((data / "manifest.json").read_text())
+    except FileNotFoundError:
+        raise NlosError(f"{data}: no manifest.json (not a finished nlos dataset)") from None
+    except json.JSONDecodeError:
+        raise NlosError(f"{data}/manifest.json: corrupted (invalid JSON)") from None
+    ids = [s["id"] for s in manifest["splits"].get("test", [])]
+    if not ids:
+        raise NlosError(f"{data}: the test split is empty")
+    return ids
+
+
+def run_all(run_dir: Path, data: Path, seeds: int, names: list[str] | None, progress: bool) -> Evaluation:
+    from ..console import console
+
+    base = run_config(run_dir)
+    ids = test_ids(data)
+    ev = Evaluation(select(names), seeds_of(base, seeds), ids)
+    scenes = load_split(data, "test", base.ien_features)
+    flash = _has_flash(data, ids)
+    for m in ev.methods:
+        if m.policy == "flash" and not flash:
+            ev.skipped[m.name] = "the dataset stores no flash images"
+            console.print(f"[yellow]skip {m.name}: {ev.skipped[m.name]}[/yellow]")
+            continue
+        ev.preds[m.name] = {}
+        for seed in ev.seeds:
+            t0 = time.perf_counter()
+            path = ensure_run(run_dir, base, m, seed, data, progress)
+            ev.seconds[f"train {m.name} seed{seed}"] = time.perf_counter() - t0
+            ev.preds[m.name][seed] = evaluate_models(load_trained(path), scenes, ids, seed)
+            console.print(f"{m.name} seed {seed}: {fmt_short(per_class(ev.preds[m.name][seed]))}")
+    t0 = time.perf_counter()
+    ev.decimation = decimation_study(run_dir, base, ev, scenes)
+    ev.seconds["decimation study"] = time.perf_counter() - t0
+    ev.snr = spot_snr(ev, data)
+    return ev
+
+
+def fmt_short(r: dict) -> str:
+    return f"accuracy {r['accuracy']['all']:.1f}%, error {r['error_cm']['all']:.1f} cm"
+
+
+def decimation_study(run_dir: Path, base, ev: Evaluation, scenes) -> dict:
+    """Fig. 7: ours at every seed, on every test scene, with the IEN reading decimated dense meshes."""
+    from .metrics import per_class as pc
+
+    acc = np.zeros((len(ev.seeds), len(dec.RATIOS)))
+    err = np.zeros_like(acc)
+    snaps, verts = [], []
+    for i, seed in enumerate(ev.seeds):
+        from .runs import run_path
+
+        models = load_trained(run_path(run_dir, base, BY_NAME["ours"], seed))
+        per_scene = [dec.choices(models, s) for s in scenes]
+        for j in range(len(dec.RATIOS)):
+            p = Predictions()
+            gen = torch.Generator().manual_seed(20_000 + seed)
+            for s, sid, ch in zip(scenes, ev.scene_ids, per_scene):
+                c = ch[j]
+                pos, prob = predict_scene(models, s, dec.as_illumination(c), gen)
+                snaps.append(c.snap_m)
+                verts.append(c.vertices)
+                for k in range(s.num_samples):
+                    p.scene.append(sid)
+                    p.sample.append(k)
+                    p.true_xy.append(s.target[k].numpy())
+                    p.pred_xy.append(pos[k])
+                    p.true_posture.append(int(s.posture[k]))
+                    p.probs.append(prob[k])
+                    p.trajectory.append(tuple(int(v) for v in s.trajectory[k]))
+            r = pc(p)
+            acc[i, j], err[i, j] = r["accuracy"]["all"], r["error_cm"]["all"]
+    return {"ratios": list(dec.RATIOS), "accuracy": acc.tolist(), "error_cm": err.tolist(),
+            "snap_m_mean": float(np.mean(snaps)), "dense_vertices": int(max(verts))}
+
+
+def spot_snr(ev: Evaluation, data: Path) -> dict:
+    """Per spot method: mean over scenes and seeds of its spot's NLOS SNR divided by the oracle's."""
+    from ..lighting.snr import candidate_snr
+
+    table = {sid: candidate_snr(data / "scenes" / sid) for sid in ev.scene_ids}
+    out = {}
+    for name, by_seed in ev.preds.items():
+        ratios = [table[sid][ill.face] / table[sid].max() for p in by_seed.values()
+                  for sid, ill in p.spots.items() if ill.mode == "spot"]
+        if ratios:
+            out[name] = (float(np.mean(ratios)), float(np.std(ratios)))
+    return out

@@ -1,0 +1,55 @@
+"""The methods of the paper's experiments: a spot policy paired with an NLOS network.
+
+``ours`` is the run given to ``nlos evaluate`` (IEN trained end to end with the ResNet-18
+network); every other method is trained by the evaluation with the same training config, its
+policy and network swapped (docs/baselines.md says where each pairing comes from).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Method:
+    """A spot policy and an NLOS network, trained and evaluated together."""
+
+    name: str
+    """Key used in tables, CSVs and run folders."""
+    label: str
+    """Name shown in the report."""
+    policy: str
+    """'ien' or a fixed policy of ``lighting.POLICIES``."""
+    arch: str
+    """Network of ``models.registry.NETWORKS``."""
+
+
+METHODS: tuple[Method, ...] = (
+    Method("ours", "Ours (IEN + ResNet-18)", "ien", "resnet18"),
+    Method("ien_cnn", "IEN + CNN (Chandran)", "ien", "chandran"),
+    Method("al_resnet", "AL + ResNet-18", "adaptive", "resnet18"),
+    Method("random_resnet", "Random + ResNet-18", "random", "resnet18"),
+    Method("center_resnet", "Center + ResNet-18", "center", "resnet18"),
+    Method("oracle_resnet", "Oracle + ResNet-18", "oracle", "resnet18"),
+    Method("chandran", "Chandran & Jayasuriya (AL + CNN)", "adaptive", "chandran"),
+    Method("tancik", "Tancik et al. (Flash + CNN)", "flash", "tancik"),
+    Method("dlnlos", "DL-NLOS (ambient + CNN)", "ambient", "dlnlos"),
+)
+"""Every method of Tables 1-3, ours first."""
+
+TABLE3 = ("ien_cnn", "al_resnet", "random_resnet", "center_resnet", "ours", "oracle_resnet")
+"""Rows of Table 3 (the spot-policy and network ablation), in the paper's order plus the oracle."""
+
+BY_NAME = {m.name: m for m in METHODS}
+
+
+def select(names: list[str] | None) -> list[Method]:
+    """Methods by name (all when ``names`` is empty); ``ours`` is always included."""
+    from ..errors import NlosError
+
+    if not names:
+        return list(METHODS)
+    bad = [n for n in names if n not in BY_NAME]
+    if bad:
+        raise NlosError(f"--methods: unknown method '{bad[0]}' (choose from {', '.join(BY_NAME)})")
+    return [BY_NAME["ours"]] + [BY_NAME[n] for n in names if n != "ours"]
