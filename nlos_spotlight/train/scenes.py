@@ -37,7 +37,8 @@ class SceneTensors:
     nlos_ambient: torch.Tensor
     """(N, H, W, 3)."""
     target: torch.Tensor
-    """(N, 2) floor position in the camera's ground frame (m): along the view, to the left."""
+    """(N, 2) floor position (m) relative to the hidden region's center, axes along the camera's view
+    direction on the floor and to its left (the region frame: see :func:`region_frame`)."""
     posture: torch.Tensor
     """(N,) posture index."""
     trajectory: torch.Tensor
@@ -46,6 +47,8 @@ class SceneTensors:
     """(2,) camera floor position (m), world frame."""
     forward_xy: torch.Tensor
     """(2,) unit viewing direction on the floor, world frame."""
+    origin_xy: torch.Tensor | None = None
+    """(2,) world floor point of the target frame's origin (the hidden region's center)."""
     flash_direct: torch.Tensor | None = None
     """(H, W, 3) person-free image under the flash (datasets that store it), else None."""
     flash_nlos: torch.Tensor | None = None
@@ -62,11 +65,26 @@ class SceneTensors:
         return len(self.posture)
 
 
-def ground_frame(pos_xy: np.ndarray, cam_xy: np.ndarray, fwd_xy: np.ndarray) -> np.ndarray:
-    """World floor points (N, 2) -> (along the view, to the left of it) relative to the camera."""
+def ground_frame(pos_xy: np.ndarray, origin_xy: np.ndarray, fwd_xy: np.ndarray) -> np.ndarray:
+    """World floor points (N, 2) -> (along the view, to the left of it) relative to ``origin_xy``.
+
+    Targets use the region frame: origin at the hidden region's center, the frame a user who marks
+    the area around the corner on a floor plan reads positions in. Relative to the camera, the
+    region sits meters away in a different place in every room, which no network can infer from a
+    handful of rooms; within the region, the position is what the light transport encodes.
+    """
     left = np.array([-fwd_xy[1], fwd_xy[0]])
-    rel = pos_xy - cam_xy
+    rel = pos_xy - origin_xy
     return np.stack([rel @ fwd_xy, rel @ left], axis=1)
+
+
+def region_center(scene_dir: Path) -> np.ndarray:
+    """(2,) world floor center of a dataset scene's hidden region."""
+    try:
+        hr = json.loads((scene_dir / "scene.json").read_text())["hidden_region"]
+        return (np.asarray(hr["min"], float) + np.asarray(hr["max"], float)) / 2
+    except (OSError, KeyError, TypeError, json.JSONDecodeError) as exc:
+        raise NlosError(f"{scene_dir}/scene.json: no readable hidden_region ({type(exc).__name__})") from None
 
 
 def graph_inputs(mesh: TriMesh, camera_to_world: np.ndarray, features: list[str]):
@@ -90,6 +108,7 @@ def load_scene_tensors(scene_dir: Path, features: list[str]) -> SceneTensors:
     fwd = -pose[:2, 2]
     fwd = fwd / np.linalg.norm(fwd)
     cam = pose[:2, 3]
+    origin = region_center(scene_dir)
     f32 = lambda a: torch.as_tensor(np.asarray(a), dtype=torch.float32)
     return SceneTensors(
         x=x, edge_index=edges,
@@ -97,10 +116,10 @@ def load_scene_tensors(scene_dir: Path, features: list[str]) -> SceneTensors:
         direct=f32(st["direct"]), ambient=f32(st["ambient"]),
         u=f32(np.stack([z["transport_u"] for z in zs])), v=f32(np.stack([z["transport_v"] for z in zs])),
         nlos_ambient=f32(np.stack([z["nlos_ambient"] for z in zs])),
-        target=f32(ground_frame(np.stack([z["position"] for z in zs]), cam, fwd)),
+        target=f32(ground_frame(np.stack([z["position"] for z in zs]), origin, fwd)),
         posture=torch.as_tensor([int(z["posture"]) for z in zs]),
         trajectory=torch.as_tensor([[int(z["trajectory"]), int(z["frame"])] for z in zs]),
-        camera_xy=f32(cam), forward_xy=f32(fwd),
+        camera_xy=f32(cam), forward_xy=f32(fwd), origin_xy=f32(origin),
         flash_direct=f32(st["flash_direct"]) if "flash_direct" in st.files else None,
         flash_nlos=f32(np.stack([z["flash_nlos"] for z in zs])) if zs and "flash_nlos" in zs[0].files else None,
         scene_dir=str(scene_dir))
