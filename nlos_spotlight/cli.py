@@ -16,13 +16,13 @@ import numpy as np
 from .errors import NlosError
 
 
-def _point(text: str) -> np.ndarray:
+def _point(text: str, flag: str = "--spot-point") -> np.ndarray:
     try:
         vals = [float(v) for v in text.split(",")]
     except ValueError:
-        raise NlosError(f"--spot-point: expected X,Y,Z, got {text!r}") from None
+        raise NlosError(f"{flag}: expected X,Y,Z, got {text!r}") from None
     if len(vals) != 3 or not np.all(np.isfinite(vals)):
-        raise NlosError(f"--spot-point: expected three finite numbers X,Y,Z, got {text!r}")
+        raise NlosError(f"{flag}: expected three finite numbers X,Y,Z, got {text!r}")
     return np.array(vals)
 
 
@@ -128,6 +128,67 @@ def cmd_evaluate(args: argparse.Namespace) -> None:
     console.print(f"report: {md.resolve()} (and report.html, raw.csv, summary.csv beside it)")
 
 
+def cmd_spotlight(args: argparse.Namespace) -> None:
+    from .apps.spotlight import load_setup, print_result, spotlight, write_json
+    from .console import console
+    from .train.checkpoint import load_trained
+
+    pt = {k: None if getattr(args, k) is None else _point(getattr(args, k), "--" + k.replace("_", "-"))
+          for k in ("camera_position", "camera_look_at", "projector_position")}
+    checkpoint = args.checkpoint or os.environ.get("NLOS_CHECKPOINT")
+    if not checkpoint:
+        raise NlosError("no trained run: pass --checkpoint RUN_OR_FILE (or set NLOS_CHECKPOINT)")
+    models = load_trained(checkpoint)
+    setup = load_setup(args.mesh_or_scene, pt["camera_position"], pt["camera_look_at"], pt["projector_position"],
+                       args.up)
+    result = spotlight(models, setup, args.target_vertices, args.top_k)
+    print_result(result, console)
+    if args.json:
+        write_json(result, Path(args.json))
+        console.print(f"wrote {args.json}")
+    if args.png:
+        from .apps.plots import spotlight_figure
+
+        spotlight_figure(result, Path(args.png))
+        console.print(f"wrote {args.png}")
+
+
+def cmd_predict(args: argparse.Namespace) -> None:
+    from .apps.images import load_frames
+    from .apps.predict import predict, print_table, write_csv, write_json
+    from .console import console
+    from .train.checkpoint import load_trained
+
+    models = load_trained(args.checkpoint)
+    frames = load_frames(args.inputs, models.image_shape, args.linear, args.fps)
+    background = None
+    if args.background:
+        background = load_frames([args.background], models.image_shape, args.linear).images
+        if len(background) != 1:
+            raise NlosError(f"--background: expected one image, got {len(background)} frames")
+        background = background[0]
+    if args.batch_size < 1:
+        raise NlosError(f"--batch-size: expected a positive count, got {args.batch_size}")
+    res = predict(models, frames, smooth=not args.no_smooth, window=args.smooth_window, order=args.smooth_order,
+                  batch_size=args.batch_size, background=background)
+    aspects = {round(w / h, 2) for h, w in frames.native_shapes}
+    if aspects - {round(models.image_shape[1] / models.image_shape[0], 2)}:
+        console.print(f"note: inputs of size {frames.native_shapes} (H, W) were stretched to the network's "
+                      f"{models.image_shape}; crop them to its aspect ratio for best results")
+    print_table(res, console, args.max_rows)
+    if res.smoothed is None and len(res) > 1 and not args.no_smooth:
+        console.print(f"{len(res)} frames: too few to smooth (need at least 5)")
+    for flag, write in (("csv", write_csv), ("json", write_json)):
+        if getattr(args, flag):
+            write(res, Path(getattr(args, flag)))
+            console.print(f"wrote {getattr(args, flag)}")
+    if args.plot:
+        from .apps.plots import trajectory_figure
+
+        trajectory_figure(res, Path(args.plot))
+        console.print(f"wrote {args.plot}")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="nlos", description="NLOS human localization with a projector spotlight")
     sub = p.add_subparsers(dest="command", required=True)
@@ -170,15 +231,53 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--methods", help="comma-separated subset of methods (default: all; ours always)")
     e.add_argument("--quiet", action="store_true", help="no progress bar (also NLOS_QUIET=1 or CI=true)")
     e.set_defaults(func=cmd_evaluate)
+    s = sub.add_parser("spotlight", help="where to aim the projector: the IEN's choice of face on a scene or scan")
+    s.add_argument("mesh_or_scene", help="nlos-scene/1 directory (its camera and projector) or a PLY/OBJ mesh (m)")
+    s.add_argument("--checkpoint", help="trained run: final.pt / checkpoint.pt or the run directory "
+                                        "(default: $NLOS_CHECKPOINT)")
+    s.add_argument("--json", help="write everything (chosen face, top-k, aim, LOS mesh, probabilities) here")
+    s.add_argument("--png", help="picture of the mesh colored by IEN probability with the spot marked")
+    s.add_argument("--top-k", type=int, default=5, help="faces listed with their probabilities (default 5)")
+    s.add_argument("--camera-position", help="X,Y,Z (m): camera pose for a bare mesh (default: derived from "
+                                             "the mesh bounds, printed), or overriding a scene's")
+    s.add_argument("--camera-look-at", help="X,Y,Z (m), with --camera-position")
+    s.add_argument("--projector-position", help="X,Y,Z (m) (default for a bare mesh: 0.3 m right of and "
+                                                "0.2 m below the camera)")
+    s.add_argument("--target-vertices", type=int, help="decimate the camera-visible mesh to about N vertices "
+                                                       "(default: the training dataset's, else 800)")
+    s.add_argument("--up", help="a bare mesh's up axis: x, y, z, -x, -y, -z (default: detected)")
+    s.set_defaults(func=cmd_spotlight)
+    q = sub.add_parser("predict", help="position and posture of the hidden person from photos, a stack or a video")
+    q.add_argument("checkpoint", help="trained run: final.pt / checkpoint.pt or the run directory")
+    q.add_argument("inputs", nargs="+", metavar="IMAGES_OR_VIDEO",
+                   help=".npy (H,W,3) or (N,H,W,3) linear radiance, PNG/JPEG (8/16-bit sRGB), a directory, "
+                        "a numbered pattern (img_%%04d.png), or one video (needs imageio)")
+    q.add_argument("--csv", help="per-frame table: position, posture, probabilities, smoothed position")
+    q.add_argument("--json", help="the same as JSON")
+    q.add_argument("--plot", help="PNG of the trajectory (and positions over time)")
+    q.add_argument("--fps", type=float, help="frame rate for time stamps (default: the video's, else none)")
+    q.add_argument("--linear", action="store_true", help="PNG/JPEG values are linear (do not undo sRGB)")
+    q.add_argument("--smooth-window", type=int, help="Savitzky-Golay window in frames, odd "
+                                                     "(default: about a fifth of the frames, at least 5)")
+    q.add_argument("--smooth-order", type=int, default=2, help="Savitzky-Golay polynomial order (default 2)")
+    q.add_argument("--no-smooth", action="store_true", help="no smoothed trajectory")
+    q.add_argument("--background", help="empty-room image, for networks trained with background subtraction")
+    q.add_argument("--batch-size", type=int, default=64, help="frames per forward pass")
+    q.add_argument("--max-rows", type=int, default=40, help="frames shown on screen (all go to --csv/--json)")
+    q.set_defaults(func=cmd_predict)
     return p
+
+
+_POINT_FLAGS = ("--spot-point", "--camera-position", "--camera-look-at", "--projector-position")
+"""Flags whose X,Y,Z value may start with a minus sign."""
 
 
 def _glue_values(argv: list[str]) -> list[str]:
     """``--spot-point -0.3,0,1`` would read as an option to argparse: glue such values to their flag."""
     out, i = [], 0
     while i < len(argv):
-        if argv[i] == "--spot-point" and i + 1 < len(argv):
-            out.append(f"--spot-point={argv[i + 1]}")
+        if argv[i] in _POINT_FLAGS and i + 1 < len(argv):
+            out.append(f"{argv[i]}={argv[i + 1]}")
             i += 2
         else:
             out.append(argv[i])

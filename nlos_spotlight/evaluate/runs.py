@@ -45,7 +45,7 @@ def run_path(run_dir: Path, base: TrainConfig, method: Method, seed: int) -> Pat
 
 def method_config(base: TrainConfig, method: Method, seed: int) -> TrainConfig:
     return dataclasses.replace(base, seed=seed, policy=method.policy, arch=method.arch,
-                               name=f"{base.name}-{method.name}")
+                               name=f"{base.name}-{method.name}", **dict(method.overrides))
 
 
 def ensure_run(run_dir: Path, base: TrainConfig, method: Method, seed: int, data: Path,

@@ -50,6 +50,22 @@ def fixed_illuminations(cfg: TrainConfig, scenes: list[SceneTensors]):
     return [fn(s, Path(s.scene_dir), np.random.default_rng([cfg.seed, i])) for i, s in enumerate(scenes)]
 
 
+def spot_snr_targets(cfg: TrainConfig, scenes: list[SceneTensors]) -> list[torch.Tensor | None] | None:
+    """Per scene (T,) candidate NLOS SNR over its best (``lighting.snr``), for ``snr_weight > 0``."""
+    if cfg.snr_weight <= 0:
+        return None
+    from ..lighting.snr import candidate_snr
+
+    out = []
+    for s in scenes:
+        if not s.scene_dir:  # scenes built in memory carry no stored transport to measure
+            out.append(None)
+            continue
+        snr = torch.as_tensor(candidate_snr(s.scene_dir), dtype=torch.float32, device=s.x.device)
+        out.append(snr / snr.max().clamp(min=1e-30))
+    return out
+
+
 def straight_through_spot(logits: torch.Tensor, landed: torch.Tensor, tau: float,
                           generator: torch.Generator | None) -> torch.Tensor:
     """One-hot y (T,) in the forward pass, softmax((logits + g) / tau) gradient in the backward pass."""
@@ -78,6 +94,7 @@ class Trainer:
         self.net.set_targets(torch.cat([s.target for s in self.scenes]))
         self.image_shape = (h, w)
         self.fixed = fixed_illuminations(cfg, scenes)
+        self.spot_snr = spot_snr_targets(cfg, self.scenes) if self.fixed is None else None
         self.ien_ddp, self.net_ddp = self.ien, self.net
         if self.world > 1:
             from torch.nn.parallel import DistributedDataParallel as DDP
@@ -92,21 +109,30 @@ class Trainer:
         self.step = 0
 
     # ------------------------------------------------------------ one step
-    def illumination(self, s: SceneTensors, train: bool) -> tuple[torch.Tensor | None, str]:
-        """(spot vector y (T,) or None, mode) for scene ``s``: the IEN's choice or the fixed policy's."""
+    def illumination(self, s: SceneTensors, train: bool) -> tuple[torch.Tensor | None, str, torch.Tensor | None]:
+        """(spot vector y (T,) or None, mode, IEN logits or None) for scene ``s``."""
         if self.fixed is not None:
             ill = self.fixed[self.scene_index(s)]
-            return ill.spot_vector(len(s.faces), self.device), ill.mode
+            return ill.spot_vector(len(s.faces), self.device), ill.mode, None
         logits = self.ien_ddp(s.x, s.edge_index, s.faces)
         if train:
-            return straight_through_spot(logits, s.landed, self.cfg.tau, self.gen), "spot"
-        return F.one_hot(logits.masked_fill(~s.landed, float("-inf")).argmax(), len(logits)).float(), "spot"
+            return straight_through_spot(logits, s.landed, self.cfg.tau, self.gen), "spot", logits
+        y = F.one_hot(logits.masked_fill(~s.landed, float("-inf")).argmax(), len(logits)).float()
+        return y, "spot", logits
+
+    def spot_loss(self, s: SceneTensors, logits: torch.Tensor | None) -> torch.Tensor:
+        """Auxiliary loss: minus the expected normalized NLOS SNR of the IEN's spot distribution."""
+        target = self.spot_snr[self.scene_index(s)] if self.spot_snr is not None else None
+        if logits is None or target is None:
+            return torch.zeros((), device=self.device)
+        p = torch.softmax(logits.masked_fill(~s.landed, float("-inf")), dim=0)
+        return -(p * target).sum()
 
     def scene_index(self, s: SceneTensors) -> int:
         return next(i for i, t in enumerate(self.scenes) if t is s)
 
     def loss_on(self, s: SceneTensors, idx: torch.Tensor, train: bool = True) -> dict:
-        y, mode = self.illumination(s, train)
+        y, mode, ien_logits = self.illumination(s, train)
         images, person_free = form_images(s, idx, y, mode)
         if self.cfg.sensor_noise:
             images = add_sensor_noise(images, person_free, self.sensor, self.gen)
@@ -114,7 +140,9 @@ class Trainer:
         pos_loss = F.mse_loss(pos, s.target[idx])
         cls_loss = F.cross_entropy(post, s.posture[idx])
         err = (pos - s.target[idx]).norm(dim=1)
-        return {"loss": self.cfg.position_weight * pos_loss + self.cfg.posture_weight * cls_loss,
+        spot_loss = self.spot_loss(s, ien_logits)
+        return {"loss": self.cfg.position_weight * pos_loss + self.cfg.posture_weight * cls_loss
+                + self.cfg.snr_weight * spot_loss, "spot_loss": spot_loss,
                 "pos_loss": pos_loss, "cls_loss": cls_loss, "err_cm": 100 * err.mean(),
                 "acc": (post.argmax(1) == s.posture[idx]).float().mean(),
                 "spot": y.argmax() if y is not None else torch.tensor(-1),
@@ -186,7 +214,7 @@ def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool 
     if tr.rank == 0:
         (out / "config.json").write_text(json.dumps({"train": cfg.to_dict(), "data": str(data_dir)}, indent=1))
     metrics = out / "metrics.csv"
-    fields = ["step", "loss", "pos_loss", "cls_loss", "err_cm", "acc", "spot", "scene", "seconds"]
+    fields = ["step", "loss", "pos_loss", "cls_loss", "spot_loss", "err_cm", "acc", "spot", "scene", "seconds"]
     if tr.rank == 0 and (not metrics.exists() or tr.step == 0):
         with metrics.open("w", newline="") as f:
             csv.writer(f).writerow(fields)

@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 import torch
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -99,3 +100,23 @@ dist.destroy_process_group()
                           str(script)], capture_output=True, text=True, env=env, timeout=600)
     assert res.returncode == 0, res.stderr[-2000:]
     assert "DDP-OK 2" in res.stdout
+
+
+def test_snr_loss_alone_teaches_the_best_snr_spot():
+    """With only the auxiliary loss, the IEN's choice moves to the candidate of highest stored SNR."""
+    cfg = TrainConfig(steps=30, batch_size=4, sensor_noise=False, position_weight=0.0, posture_weight=0.0,
+                      snr_weight=1.0)
+    best = _best_is_initial_worst(cfg)
+    tr = Trainer(cfg, [toy_scene()], Path("unused"))
+    snr = torch.full((len(tr.scenes[0].faces),), 0.2)
+    snr[best] = 1.0
+    tr.spot_snr = [snr]
+    s = tr.scenes[0]
+    with torch.no_grad():
+        p0 = torch.softmax(tr.ien(s.x, s.edge_index, s.faces), 0)
+        expected = -float((p0 * snr).sum())
+    assert float(tr.loss_on(s, torch.arange(4))["spot_loss"]) == pytest.approx(expected, rel=1e-5)
+    for _ in range(cfg.steps):
+        tr.train_step()
+    with torch.no_grad():
+        assert int(tr.ien(s.x, s.edge_index, s.faces).argmax()) == best

@@ -1,0 +1,365 @@
+"""Read photographs for ``nlos predict``: linear radiance frames at the network's resolution.
+
+Inputs and how they become linear RGB (the NLOS network divides every image by its mean, so only
+relative radiance matters; absolute exposure does not):
+
+- ``.npy``: float linear radiance, (H, W, 3) for one frame or (N, H, W, 3) for a stack.
+- PNG / JPEG, 8 or 16 bits per channel (gray, gray+alpha, RGB, RGBA; alpha dropped, gray
+  replicated): integers divided by 255 or 65535, then the sRGB transfer curve undone (IEC
+  61966-2-1) unless ``linear=True`` (for cameras that write linear values). Pillow decodes 8-bit
+  files; it truncates 16-bit RGB PNGs to 8 bits, so those are decoded here (:func:`read_png16`).
+- A video (``VIDEO_SUFFIXES``) through ``imageio`` when it is installed (optional), decoded as
+  8-bit sRGB.
+
+Every frame is then resampled to the checkpoint's (H, W) by area averaging (:func:`area_resize`):
+an output pixel is the mean of the input over its footprint, the same pixel model the renderer
+uses (DESIGN section 4). The whole frame is resampled; a frame of another aspect ratio is
+stretched, so crop to the training aspect first.
+"""
+
+from __future__ import annotations
+
+import glob
+import re
+import struct
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+from ..errors import NlosError
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
+"""Still images read by :func:`read_image`."""
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg", ".wmv", ".gif")
+"""Files read as video through ``imageio``."""
+_PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+# ---------------------------------------------------------------- pixel values
+
+def srgb_to_linear(v: np.ndarray) -> np.ndarray:
+    """Undo the sRGB transfer curve: encoded values in [0, 1] -> linear values in [0, 1]."""
+    v = np.asarray(v, dtype=np.float64)
+    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
+
+
+def _to_rgb(a: np.ndarray, where: str) -> np.ndarray:
+    """(H, W), (H, W, 1..4) -> (H, W, 3): gray replicated, alpha dropped."""
+    if a.ndim == 2:
+        a = a[..., None]
+    if a.ndim != 3 or a.shape[2] not in (1, 2, 3, 4):
+        raise NlosError(f"{where}: unsupported image layout {a.shape}")
+    if a.shape[2] in (1, 2):  # gray (+ alpha)
+        return np.repeat(a[..., :1], 3, axis=2)
+    return a[..., :3]
+
+
+# ---------------------------------------------------------------- 16-bit PNG
+
+def _paeth(a: int, b: int, c: int) -> int:
+    p = a + b - c
+    pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
+    return a if pa <= pb and pa <= pc else (b if pb <= pc else c)
+
+
+def _unfilter(data: bytes, height: int, stride: int, bpp: int, where: str) -> np.ndarray:
+    """Undo PNG row filters (None, Sub, Up, Average, Paeth) -> (height, stride) uint8.
+
+    None/Sub/Up are vectorized per row; Average and Paeth depend on the reconstructed byte to the
+    left, so they run as a Python loop over the row's bytes (a few seconds per megapixel).
+    """
+    if len(data) < height * (stride + 1):
+        raise NlosError(f"{where}: truncated PNG image data")
+    rows = np.frombuffer(data, np.uint8, height * (stride + 1)).reshape(height, stride + 1)
+    out = np.zeros((height, stride), np.uint8)
+    prev = np.zeros(stride, np.uint8)
+    for y in range(height):
+        kind, line = int(rows[y, 0]), rows[y, 1:]
+        if kind == 0:
+            cur = line.copy()
+        elif kind == 1:  # Sub: running sum per byte position within a pixel, modulo 256
+            cur = np.cumsum(line.reshape(-1, bpp).astype(np.int64), axis=0).reshape(-1).astype(np.uint8)
+        elif kind == 2:
+            cur = line + prev
+        elif kind in (3, 4):
+            raw, up, rec = line.tolist(), prev.tolist(), [0] * stride
+            for i in range(stride):
+                left = rec[i - bpp] if i >= bpp else 0
+                if kind == 3:
+                    rec[i] = (raw[i] + ((left + up[i]) >> 1)) & 0xFF
+                else:
+                    rec[i] = (raw[i] + _paeth(left, up[i], up[i - bpp] if i >= bpp else 0)) & 0xFF
+            cur = np.array(rec, np.uint8)
+        else:
+            raise NlosError(f"{where}: corrupted PNG (unknown row filter {kind})")
+        out[y], prev = cur, cur
+    return out
+
+
+def read_png16(path: Path) -> np.ndarray:
+    """Decode a non-interlaced 16-bit PNG (gray, gray+alpha, RGB, RGBA) -> (H, W, C) uint16."""
+    data = path.read_bytes()
+    where = str(path)
+    if not data.startswith(_PNG_MAGIC):
+        raise NlosError(f"{where}: not a PNG file")
+    pos, header, idat = 8, None, []
+    try:
+        while pos < len(data):
+            (length,), kind = struct.unpack(">I", data[pos:pos + 4]), data[pos + 4:pos + 8]
+            body = data[pos + 8:pos + 8 + length]
+            if len(body) != length:
+                raise NlosError(f"{where}: truncated PNG chunk {kind!r}")
+            if kind == b"IHDR":
+                header = struct.unpack(">IIBBBBB", body)
+            elif kind == b"IDAT":
+                idat.append(body)
+            elif kind == b"IEND":
+                break
+            pos += 12 + length
+    except struct.error:
+        raise NlosError(f"{where}: truncated PNG") from None
+    if header is None or not idat:
+        raise NlosError(f"{where}: PNG without header or image data")
+    width, height, depth, color, _, _, interlace = header
+    channels = {0: 1, 2: 3, 4: 2, 6: 4}.get(color)
+    if depth != 16 or channels is None:
+        raise NlosError(f"{where}: expected a 16-bit gray/RGB(A) PNG, got depth {depth}, color type {color}")
+    if interlace:
+        raise NlosError(f"{where}: interlaced 16-bit PNGs are not supported (save it non-interlaced)")
+    try:
+        raw = zlib.decompress(b"".join(idat))
+    except zlib.error:
+        raise NlosError(f"{where}: corrupted PNG (compressed data invalid)") from None
+    rows = _unfilter(raw, height, width * channels * 2, channels * 2, where)
+    return rows.view(">u2").reshape(height, width, channels).astype(np.uint16)
+
+
+def _png_depth(path: Path) -> int | None:
+    """Bit depth from a PNG's header, None for other files."""
+    with path.open("rb") as f:
+        head = f.read(33)
+    if not head.startswith(_PNG_MAGIC) or len(head) < 25 or head[12:16] != b"IHDR":
+        return None
+    return head[24]
+
+
+# ---------------------------------------------------------------- readers
+
+def read_image(path: Path, linear: bool = False) -> np.ndarray:
+    """A PNG / JPEG photograph -> (H, W, 3) float64 linear values in [0, 1] (see module docstring)."""
+    try:
+        if _png_depth(path) == 16:
+            a, full = read_png16(path), 65535.0
+        else:
+            from PIL import Image, UnidentifiedImageError
+
+            try:
+                with Image.open(path) as im:
+                    im.load()
+                    if im.mode in ("I;16", "I;16B", "I;16L", "I"):  # 16-bit gray from other containers
+                        a, full = np.asarray(im, dtype=np.float64), 65535.0
+                    else:
+                        a, full = np.asarray(im.convert("RGBA" if "A" in im.mode else "RGB")), 255.0
+            except (UnidentifiedImageError, SyntaxError, ValueError, OSError) as exc:
+                raise NlosError(f"{path}: unreadable image ({type(exc).__name__})") from None
+    except FileNotFoundError:
+        raise NlosError(f"{path}: file not found") from None
+    v = _to_rgb(np.asarray(a, dtype=np.float64), str(path)) / full
+    return v if linear else srgb_to_linear(v)
+
+
+def read_npy(path: Path) -> np.ndarray:
+    """(H, W, 3) or (N, H, W, 3) float radiance -> (N, H, W, 3) float64."""
+    try:
+        a = np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise NlosError(f"{path}: file not found") from None
+    except Exception as exc:  # np.load raises several types on foreign or torn files
+        raise NlosError(f"{path}: unreadable .npy ({type(exc).__name__})") from None
+    if not isinstance(a, np.ndarray) or a.dtype.kind not in "fiu":
+        raise NlosError(f"{path}: expected a numeric array, got dtype {getattr(a, 'dtype', type(a))}")
+    if a.ndim == 3:
+        a = a[None]
+    if a.ndim != 4 or a.shape[-1] != 3 or min(a.shape) == 0:
+        raise NlosError(f"{path}: expected shape (H, W, 3) or (N, H, W, 3), got {a.shape}")
+    return a.astype(np.float64)
+
+
+def read_video(path: Path, linear: bool = False) -> tuple[Iterator[np.ndarray], float | None]:
+    """Frames of a video as (H, W, 3) float64 linear values, and its frame rate (None if unknown)."""
+    try:
+        import imageio.v3 as iio
+    except ImportError:
+        raise NlosError(f"{path}: reading video needs the optional package imageio with a video plugin "
+                        "(pip install 'imageio[pyav]'), or pass the frames as images") from None
+    if not path.is_file():
+        raise NlosError(f"{path}: file not found")
+    try:
+        meta = iio.immeta(path)
+        fps = meta.get("fps")
+        frames = iio.imiter(path)
+    except Exception as exc:  # plugins raise many types on unreadable files
+        raise NlosError(f"{path}: imageio cannot read this video ({type(exc).__name__})") from None
+
+    def gen() -> Iterator[np.ndarray]:
+        try:
+            for f in frames:
+                a = np.asarray(f)
+                full = 65535.0 if a.dtype == np.uint16 else 255.0
+                v = _to_rgb(a.astype(np.float64), str(path)) / full
+                yield v if linear else srgb_to_linear(v)
+        except NlosError:
+            raise
+        except Exception as exc:
+            raise NlosError(f"{path}: video decoding failed ({type(exc).__name__})") from None
+
+    return gen(), float(fps) if fps else None
+
+
+# ---------------------------------------------------------------- resampling
+
+def _area_matrix(n_in: int, n_out: int) -> np.ndarray:
+    """(n_out, n_in) weights: output cell i is the mean of the input over its footprint
+    [i, i+1) * n_in / n_out, each input cell weighted by its overlap."""
+    edges = np.arange(n_out + 1) * (n_in / n_out)
+    lo, hi = edges[:-1, None], edges[1:, None]
+    cells = np.arange(n_in)[None, :]
+    overlap = np.clip(np.minimum(hi, cells + 1) - np.maximum(lo, cells), 0.0, None)
+    return overlap / overlap.sum(axis=1, keepdims=True)
+
+
+def area_resize(images: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Area-averaging resampling (exact box filter; works for down- and upsampling).
+
+    Args:
+        images: (N, H, W, C) or (H, W, C) values.
+        shape: (h, w) output size.
+
+    Returns:
+        (N, h, w, C) (or (h, w, C)) float64; an integer downscale is the mean of each block.
+    """
+    a = np.asarray(images, dtype=np.float64)
+    single = a.ndim == 3
+    a = a[None] if single else a
+    h, w = shape
+    if a.shape[1:3] != (h, w):
+        a = np.einsum("ih,nhwc,jw->nijc", _area_matrix(a.shape[1], h), a, _area_matrix(a.shape[2], w))
+    return a[0] if single else a
+
+
+# ---------------------------------------------------------------- frame sets
+
+@dataclass
+class Frames:
+    """Input frames at the network's resolution, in time order."""
+
+    images: np.ndarray
+    """(N, H, W, 3) float32 linear radiance (relative)."""
+    sources: list[str] = field(default_factory=list)
+    """(N,) where each frame came from: 'a.png', 'stack.npy[3]', 'clip.mp4#12'."""
+    fps: float | None = None
+    """Frames per second (--fps, else the video's rate), None if unknown."""
+    native_shapes: list[tuple[int, int]] = field(default_factory=list)
+    """Distinct (H, W) sizes of the inputs before resampling."""
+
+    def __len__(self) -> int:
+        return len(self.images)
+
+
+def _natural_key(p: Path) -> list:
+    """Sort key comparing digit runs as numbers: frame2 < frame10."""
+    return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", str(p))]
+
+
+def _printf_files(pattern: str) -> list[Path]:
+    """Files matching a printf pattern such as ``frames/img_%04d.png``."""
+    p = Path(pattern)
+    regex = re.escape(p.name)
+    regex = re.sub(r"%0(\d+)d", lambda m: rf"\d{{{m.group(1)}}}", regex.replace(r"\%", "%"))
+    regex = regex.replace("%d", r"\d+")
+    folder = p.parent if str(p.parent) else Path(".")
+    return [f for f in folder.glob("*") if re.fullmatch(regex, f.name)] if folder.is_dir() else []
+
+
+def expand_inputs(items: list[str]) -> list[Path]:
+    """Input arguments -> files in frame order.
+
+    Each item is a file, a directory (its images and .npy files), a printf pattern
+    (``img_%04d.png``) or a glob (``'frames/*.png'``). Files are ordered by name with numbers
+    compared numerically (``frame2`` before ``frame10``), so a numbered sequence plays in order.
+    """
+    files: list[Path] = []
+    for item in items:
+        p = Path(item)
+        if p.is_dir():
+            found = [f for f in p.iterdir() if f.suffix.lower() in (*IMAGE_SUFFIXES, ".npy")]
+            if not found:
+                raise NlosError(f"{p}: directory holds no .png, .jpg or .npy files")
+            files += found
+        elif p.exists():
+            files.append(p)
+        elif "%" in item:
+            found = _printf_files(item)
+            if not found:
+                raise NlosError(f"{item}: no files match this numbered pattern")
+            files += found
+        elif any(c in item for c in "*?["):
+            found = [Path(f) for f in glob.glob(item)]
+            if not found:
+                raise NlosError(f"{item}: no files match this pattern")
+            files += found
+        else:
+            raise NlosError(f"{item}: file not found")
+    return sorted(dict.fromkeys(files), key=_natural_key)
+
+
+def _check_finite(a: np.ndarray, source: str) -> None:
+    if not np.all(np.isfinite(a)):
+        raise NlosError(f"{source}: image contains NaN or infinity")
+
+
+def load_frames(items: list[str], shape: tuple[int, int], linear: bool = False,
+                fps: float | None = None) -> Frames:
+    """Read every input (see :func:`expand_inputs`) and resample it to ``shape`` = (H, W).
+
+    A video must be the only input. Raises :class:`NlosError` on a missing or unreadable file,
+    a wrong array shape or a non-finite value, naming the file (and frame).
+    """
+    if fps is not None and not (np.isfinite(fps) and fps > 0):
+        raise NlosError(f"--fps: expected a positive number, got {fps}")
+    files = expand_inputs(items)
+    videos = [f for f in files if f.suffix.lower() in VIDEO_SUFFIXES]
+    if videos and len(files) > 1:
+        raise NlosError(f"{videos[0]}: a video must be the only input")
+    out, sources, native = [], [], set()
+    if videos:
+        frames, video_fps = read_video(videos[0], linear)
+        fps = fps or video_fps
+        for k, frame in enumerate(frames):
+            _check_finite(frame, f"{videos[0]} frame {k}")
+            native.add(frame.shape[:2])
+            out.append(area_resize(frame, shape))
+            sources.append(f"{videos[0].name}#{k}")
+        if not out:
+            raise NlosError(f"{videos[0]}: the video has no frames")
+    for f in files if not videos else []:
+        suffix = f.suffix.lower()
+        if suffix == ".npy":
+            stack = read_npy(f)
+            for k, img in enumerate(stack):
+                _check_finite(img, f"{f} frame {k}" if len(stack) > 1 else str(f))
+            native.add(stack.shape[1:3])
+            out += list(area_resize(stack, shape))
+            sources += [f"{f.name}[{k}]" for k in range(len(stack))] if len(stack) > 1 else [f.name]
+        elif suffix in IMAGE_SUFFIXES:
+            img = read_image(f, linear)
+            native.add(img.shape[:2])
+            out.append(area_resize(img, shape))
+            sources.append(f.name)
+        else:
+            raise NlosError(f"{f}: unsupported input type '{f.suffix}' "
+                            f"(use .npy, .png, .jpg or a video: {', '.join(VIDEO_SUFFIXES)})")
+    return Frames(np.stack(out).astype(np.float32), sources, fps, sorted(native))
