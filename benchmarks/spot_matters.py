@@ -11,6 +11,8 @@ Per scene SNR_t is averaged over the static samples; then
 * random: the mean over candidates whose spot lands (the expected value of a random choice),
 * ambient only: no projector; the signal is ``nlos_ambient``, exposure on ``ambient``.
 
+The SNR and the center choice are the package's (``nlos_spotlight.lighting.snr``, ``.center``).
+
     python benchmarks/spot_matters.py --data DIR [--split test]
 """
 
@@ -21,47 +23,20 @@ import json
 from pathlib import Path
 
 import numpy as np
-import torch
 
-from nlos_spotlight.render.camera import project
-from nlos_spotlight.render.sensor import SensorConfig, auto_exposure, expected_dn
+from nlos_spotlight.lighting.center import center_candidate
+from nlos_spotlight.lighting.snr import scene_snr
 from nlos_spotlight.scene import load_scene
-
-
-def snr(signal: torch.Tensor, total: torch.Tensor, exposure: float, cfg: SensorConfig) -> float:
-    s = expected_dn(signal, exposure, cfg)
-    mu = expected_dn(total.clamp(min=0), exposure, cfg)
-    var = cfg.gain * mu + (cfg.gain * cfg.read_noise_binned_e) ** 2 + 1 / 12  # DN^2
-    return float(torch.sqrt((s * s / var).sum()))
 
 
 def scene_snrs(scene_dir: Path) -> dict:
     st = np.load(scene_dir / "static.npz")
-    direct, ambient = torch.as_tensor(st["direct"]).double(), torch.as_tensor(st["ambient"]).double()
     landed = st["spot_landed"]
-    scene = load_scene(scene_dir)
-    cfg = SensorConfig.from_dict({**(scene.sensor or {}), "width": scene.camera.width,
-                                  "height": scene.camera.height})
-    t_count = direct.shape[0]
-    exposures = [auto_exposure(direct[t] + ambient, cfg) if landed[t] else None for t in range(t_count)]
-    amb_exposure = auto_exposure(ambient, cfg) if float(ambient.max()) > 0 else cfg.max_exposure_s
-    per_t, amb = [], []
-    for path in sorted((scene_dir / "samples").glob("*.npz")):
-        z = np.load(path)
-        if int(z["trajectory"]) >= 0:
-            continue
-        f = torch.einsum("tr,rhwc->thwc", torch.as_tensor(z["transport_u"]).double(),
-                         torch.as_tensor(z["transport_v"]).double())
-        na = torch.as_tensor(z["nlos_ambient"]).double()
-        per_t.append([snr(f[t], direct[t] + ambient + f[t] + na, exposures[t], cfg) if landed[t] else 0.0
-                      for t in range(t_count)])
-        amb.append(snr(na, ambient + na, amb_exposure, cfg))
-    mean_t = np.mean(per_t, axis=0)
-    h, w = scene.camera.height, scene.camera.width
-    pix = project(scene.camera, st["aim_points"])
-    dist = np.where(landed, np.hypot(pix[:, 0] - h / 2, pix[:, 1] - w / 2), np.inf)
-    return {"oracle": float(mean_t.max()), "center": float(mean_t[np.nanargmin(dist)]),
-            "random": float(mean_t[landed].mean()), "ambient_only": float(np.mean(amb)),
+    r = scene_snr(scene_dir)
+    mean_t = r.candidates
+    center = center_candidate(load_scene(scene_dir).camera, st["aim_points"], landed)
+    return {"oracle": float(mean_t.max()), "center": float(mean_t[center]),
+            "random": float(mean_t[landed].mean()), "ambient_only": r.ambient,
             "family": str(st["family"]), "candidates": int(landed.sum())}
 
 

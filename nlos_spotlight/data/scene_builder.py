@@ -1,7 +1,14 @@
-"""Build one dataset scene: the room, its LOS mesh and candidates, per-scene images, and its samples."""
+"""Build one dataset scene: the room, its LOS mesh and candidates, per-scene images, and its samples.
+
+Besides the spot candidates, every scene is also rendered under the flash of Tancik et al. 2018
+(:mod:`.flash`): a second :class:`Renderer` on a copy of the scene whose projector is a wide beam
+at the camera, aimed at its ``look_at``, with the projector's total flux. Its one "candidate"
+gives ``flash_direct`` (static.npz) and, per sample, ``flash_nlos``.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +21,7 @@ from ..render.transport import Renderer, RenderSettings
 from ..scene.format import TriMesh
 from ..scene.io import save_scene
 from .config import DatasetConfig
+from .flash import FLASH_SPOT_SAMPLES, flash_scene
 from .store import atomic_json, atomic_npz, file_digest
 from .trajectories import walking_trajectory
 
@@ -71,13 +79,16 @@ class SceneBuilder:
                                   spot_samples=self.cfg.spot_samples, person_samples=self.cfg.person_samples,
                                   device="cpu")
         renderer = Renderer(scene, settings, aim_points=los.centroids())
-        if not (self.dir / "static.npz").exists():
-            self._write_static(renderer, los, room.family)
+        flash = Renderer(flash_scene(scene), dataclasses.replace(settings, spot_samples=settings.spot_samples
+                                                                 * FLASH_SPOT_SAMPLES),
+                         aim_points=scene.camera.look_at[None])
+        if not _readable(self.dir / "static.npz", "flash_direct"):
+            self._write_static(renderer, flash, los, room.family)
         (self.dir / "samples").mkdir(exist_ok=True)
         for k, spec in enumerate(self._specs(scene)):
             path = self.dir / "samples" / f"{k:05d}.npz"
-            if not _readable(path):
-                atomic_npz(path, **self._sample(renderer, spec, scene.hidden_region.floor_z))
+            if not _readable(path, "flash_nlos"):
+                atomic_npz(path, **self._sample(renderer, flash, spec, scene.hidden_region.floor_z))
             advance()
         digests = {str(p.relative_to(self.dir)): file_digest(p)
                    for p in sorted(self.dir.rglob("*")) if p.is_file() and p.name != "done.json"}
@@ -88,7 +99,7 @@ class SceneBuilder:
 
         return RoomConfig(resolution=self.cfg.resolution, families=[self.plan.family])
 
-    def _write_static(self, r: Renderer, los: TriMesh, family: str) -> None:
+    def _write_static(self, r: Renderer, flash: Renderer, los: TriMesh, family: str) -> None:
         h, w = r.shape
         fwd, right, up = camera_frame(r.scene.camera)
         pose = np.eye(4)
@@ -96,7 +107,8 @@ class SceneBuilder:
         atomic_npz(self.dir / "static.npz", los_vertices=los.vertices, los_faces=los.faces,
                    aim_points=r.aim_points, spot_landed=r.spot_landed,
                    direct=r.D.reshape(h, w, r.num_spots, 3).permute(2, 0, 1, 3).float().numpy(),
-                   ambient=r.ambient_image.float().numpy(), camera_to_world=pose, family=np.array(family))
+                   ambient=r.ambient_image.float().numpy(), camera_to_world=pose, family=np.array(family),
+                   flash_direct=flash.D[:, 0].reshape(h, w, 3).float().numpy())
 
     def _specs(self, scene) -> list[dict]:
         """Every sample's person: posture, position, facing, body parameters (deterministic)."""
@@ -121,7 +133,7 @@ class SceneBuilder:
                     specs.append({"params": params, "position": np.array([x, y]), "trajectory": j, "frame": f})
         return specs
 
-    def _sample(self, r: Renderer, spec: dict, floor_z: float) -> dict:
+    def _sample(self, r: Renderer, flash: Renderer, spec: dict, floor_z: float) -> dict:
         from ..world.body import POSTURES, posed_body
 
         p = spec["params"]
@@ -130,9 +142,14 @@ class SceneBuilder:
         t = np.array([spec["position"][0], spec["position"][1], floor_z])
         f = r.transport_images(person, t)
         u, v, err = low_rank(f, self.cfg.transport_rank)
-        amb = r.render(r.spot_vector(0), person, translation=t, components=("nlos_ambient",))["nlos_ambient"]
+        # nlos_ambient does not depend on the emitter, and the flash renderer has the same camera
+        # receivers: one render gives both it and the flash's nlos through a single person -> pixel
+        # gather (the costly visibility pass) instead of two.
+        under_flash = flash.render(flash.spot_vector(0), person, translation=t, components=("nlos", "nlos_ambient"))
+        amb, flash_nlos = under_flash["nlos_ambient"], under_flash["nlos"]
         return {"transport_u": u, "transport_v": v, "transport_error": np.float64(err),
-                "nlos_ambient": amb.float().numpy(), "position": np.asarray(spec["position"], np.float64),
+                "nlos_ambient": amb.float().numpy(), "flash_nlos": flash_nlos.float().numpy(),
+                "position": np.asarray(spec["position"], np.float64),
                 "posture": np.int64(POSTURES.index(p.posture)), "facing_deg": np.float64(p.facing_deg),
                 "height_m": np.float64(p.height_m), "albedo": np.asarray(p.albedo, np.float64),
                 "trajectory": np.int64(spec["trajectory"]), "frame": np.int64(spec["frame"]),
@@ -145,12 +162,17 @@ def _with(params, **changes):
     return dataclasses.replace(params, **changes)
 
 
-def _readable(path: Path) -> bool:
+def _readable(path: Path, key: str) -> bool:
+    """``path`` loads and holds array ``key``; otherwise it is deleted, to be rebuilt.
+
+    ``key`` is the newest array of the file, so a partial scene written by an older version
+    (before the flash arrays) is rebuilt whole instead of mixing versions within a scene.
+    """
     if not path.exists():
         return False
     try:
         with np.load(path) as z:
-            z["transport_u"]
+            z[key]
         return True
     except Exception:  # a torn or corrupt file is rebuilt, not trusted
         path.unlink(missing_ok=True)

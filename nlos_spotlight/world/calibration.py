@@ -14,12 +14,17 @@ Projector (a 4000-lumen business projector showing one white spot on black):
 * White projector light has a luminous efficacy of about 300 lm per radiant watt (lamp and LED
   projector spectra: 250-350 lm/W), so I = 17,150 / 300 = 57 W/sr in total, 19 W/sr per channel.
 
-Ambient light (indoor, lights dimmed for the measurement, as in the paper's captures):
+Ambient light (indoor, room lights dimmed for the measurement, as in the paper's captures):
 
-* Illuminance on the visible walls 10-150 lux. A uniform light field of radiance L gives
-  irradiance E = pi L, so L = E / pi / 300 lm/W / 3 channels: 10 lux -> 0.0035, 50 lux -> 0.018,
-  150 lux -> 0.053 W sr^-1 m^-2 per channel.
-* The hidden region is lit similarly (same room or the next one): the same range.
+* Illuminance on the visible walls 2-40 lux (light spilling in from a corridor, a window at dusk,
+  a dimmed lamp). A uniform light field of radiance L gives irradiance E = pi L, so
+  L = E / pi / 300 lm/W / 3 channels: 2 lux -> 0.0007, 40 lux -> 0.014 W sr^-1 m^-2 per channel.
+* The hidden region, around the corner, gets less of it: 0.1-2 lux (a dark hallway at night is
+  about 1 lux). Why it matters: a person lit at 150 lux (an office with the lights on) sends ~30x
+  more light to the relay wall than the spot does after its extra bounce (spot flux ~0.05 W per
+  channel at 3 degrees, ~7% of it reaching the body from the wall, versus 0.17 W/m^2 on ~1 m^2 of
+  body), and the camera, exposed for the bright spot, would then gain nothing from the
+  projector: the method of the paper is for dim scenes, and the world is calibrated for them.
 
 The sensor (APS-C, f/2, binned to the output resolution, 14-bit) is derived in ``render/sensor.py``.
 """
@@ -57,5 +62,7 @@ def ambient_radiance_per_channel(lux: float) -> float:
 
 PROJECTOR_INTENSITY = projector_intensity_per_channel()
 """~19 W/sr per channel."""
-AMBIENT_LUX = (10.0, 150.0)
-"""Range of wall illuminance from room light."""
+AMBIENT_LUX = (2.0, 40.0)
+"""Range of LOS wall illuminance from dimmed room light, lux."""
+HIDDEN_LUX = (0.1, 2.0)
+"""Range of the hidden region's illuminance, lux."""

@@ -26,7 +26,7 @@ import numpy as np
 from ..errors import NlosError
 from ..render.rays import RayEngine
 from ..scene.format import Ambient, Camera, HiddenRegion, Projector, Scene, Shape, TriMesh
-from .calibration import ambient_radiance_per_channel
+from .calibration import AMBIENT_LUX, HIDDEN_LUX, PROJECTOR_INTENSITY, ambient_radiance_per_channel
 from .furnish import furnish
 from .furniture import Kit, Part
 from .geometry import merge, transform
@@ -62,18 +62,16 @@ class RoomConfig:
     """Distance range from the camera to the main relay wall, m."""
     projector_offset_range: tuple[float, float] = (0.15, 0.6)
     """How far beside the camera the projector stands, m."""
-    projector_intensity: tuple[float, float, float] = (50.0, 50.0, 50.0)
-    """Projector radiant intensity on the axis per channel, W/sr (to be calibrated)."""
+    projector_intensity: tuple[float, float, float] = (PROJECTOR_INTENSITY,) * 3
+    """Projector radiant intensity on the axis per channel, W/sr (4000 lm: ``world.calibration``)."""
     beam_width_deg: float = 3.0
     """Spot half-angle of full intensity, degrees (to be calibrated)."""
     cutoff_deg: float = 5.0
     """Spot half-angle where the light ends, degrees (to be calibrated)."""
-    ambient_radiance_range: tuple[float, float] = (ambient_radiance_per_channel(10.0),
-                                                   ambient_radiance_per_channel(150.0))
-    """Range of the ambient radiance on the LOS surfaces per channel (10-150 lux), drawn log-uniformly."""
-    hidden_radiance_range: tuple[float, float] = (ambient_radiance_per_channel(10.0),
-                                                  ambient_radiance_per_channel(150.0))
-    """Range of the hidden region's ambient radiance per channel, drawn log-uniformly."""
+    ambient_radiance_range: tuple[float, float] = tuple(ambient_radiance_per_channel(v) for v in AMBIENT_LUX)
+    """Range of the ambient radiance on the LOS surfaces per channel (``AMBIENT_LUX``), drawn log-uniformly."""
+    hidden_radiance_range: tuple[float, float] = tuple(ambient_radiance_per_channel(v) for v in HIDDEN_LUX)
+    """Range of the hidden region's ambient radiance per channel (``HIDDEN_LUX``), drawn log-uniformly."""
     furniture_density: float = 1.0
     """How full the walls get (0: bare shells; 1: typical; 2: crowded)."""
     occluder_count: tuple[int, int] = (1, 3)

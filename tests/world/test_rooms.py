@@ -74,7 +74,13 @@ def test_every_family_generates_valid_scenes(rooms):
         off = pr.position - cam.position
         lateral = abs(off[0] * fwd_h[1] - off[1] * fwd_h[0])
         assert 0.15 - 1e-9 <= lateral <= 0.6 + 1e-9, lateral
-        assert np.allclose(pr.intensity, 50.0) and pr.beam_width_deg == 3.0 and pr.cutoff_deg == 5.0
+        # 4000 lm over a 1.5-throw 16:9 image, 300 lm/W, three channels (world/calibration.py)
+        a, b = 2 * np.arctan(1 / 3.0), 2 * np.arctan(1 / (3.0 * 16 / 9))
+        assert np.allclose(pr.intensity, 4000 / (4 * np.arcsin(np.sin(a / 2) * np.sin(b / 2))) / 900)
+        assert pr.beam_width_deg == 3.0 and pr.cutoff_deg == 5.0
+        lux = lambda L: L * np.pi * 900  # uniform radiance per channel -> illuminance
+        assert np.all((lux(sc.ambient.radiance) >= 2 - 1e-9) & (lux(sc.ambient.radiance) <= 40 + 1e-9))
+        assert np.all((lux(sc.ambient.hidden_radiance) >= 0.1 - 1e-9) & (lux(sc.ambient.hidden_radiance) <= 2 + 1e-9))
         assert sc.ambient is not None and np.all(sc.ambient.radiance > 0) and np.all(sc.ambient.hidden_radiance > 0)
         assert len(room.kinds) == len(sc.shapes)
         assert {"wall", "floor", "ceiling"} <= set(room.kinds)

@@ -1,0 +1,116 @@
+"""NLOS signal-to-noise ratio of each candidate spot, from a scene's stored light transport.
+
+A spot is good when the person's light stands out of the sensor noise of the whole photograph.
+Under the sensor model (``render/sensor.py``) with auto-exposure, candidate t of a scene gets
+exposure ``e_t = auto_exposure(direct_t + ambient)`` (the person-free image, as a camera meters it),
+and a pixel's mean and variance in digital numbers are
+
+    s_p   = k e_t nlos_tp                                   (the person's signal, DN)
+    mu_p  = k e_t (direct_tp + ambient_p + nlos_tp + nlos_ambient_p)
+    var_p = g mu_p + (g sigma_read)^2 + 1/12                (shot + read + quantization noise)
+
+with ``k = electrons_per_radiance * gain`` and g the gain (DN per electron). The SNR is the
+matched-filter detectability of the person, summed over pixels and channels,
+
+    SNR_t = sqrt( sum_p s_p^2 / var_p ),
+
+averaged over the scene's static samples (walking-trajectory frames are left out, so every
+sample counts once). Projector off ("ambient only"): signal ``nlos_ambient``, exposure on
+``ambient``. Flash (datasets that store it): signal ``flash_nlos``, exposure on
+``flash_direct + ambient``.
+
+Shapes: images (..., H, W, 3); :func:`candidate_snr` returns (T,), 0 for spots that land nowhere.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ..errors import NlosError
+from ..render.sensor import SensorConfig, auto_exposure, expected_dn
+
+
+def sensor_config(scene) -> SensorConfig:
+    """The scene's sensor (its ``sensor`` overrides) at the camera's resolution."""
+    return SensorConfig.from_dict({**(scene.sensor or {}), "width": scene.camera.width,
+                                   "height": scene.camera.height})
+
+
+def snr(signal: torch.Tensor, total: torch.Tensor, exposure: float, cfg: SensorConfig) -> float:
+    """SNR of one signal image (H, W, 3) inside the photograph ``total`` at ``exposure`` seconds."""
+    s = expected_dn(signal, exposure, cfg)
+    mu = expected_dn(total.clamp(min=0), exposure, cfg)
+    var = cfg.gain * mu + (cfg.gain * cfg.read_noise_binned_e) ** 2 + 1 / 12  # DN^2
+    return float(torch.sqrt((s * s / var).sum()))
+
+
+def snr_batch(signal: torch.Tensor, total: torch.Tensor, exposures: torch.Tensor, cfg: SensorConfig) -> torch.Tensor:
+    """:func:`snr` for a stack: signal, total (B, H, W, 3), exposures (B,) seconds -> (B,)."""
+    k = (exposures * cfg.electrons_per_radiance * cfg.gain).reshape(-1, 1, 1, 1)  # DN per radiance unit
+    s = signal * k
+    var = cfg.gain * (total.clamp(min=0) * k) + (cfg.gain * cfg.read_noise_binned_e) ** 2 + 1 / 12
+    return torch.sqrt((s * s / var).sum(dim=(1, 2, 3)))
+
+
+@dataclass
+class SceneSNR:
+    """Mean NLOS SNR of a scene's static samples under each illumination."""
+
+    candidates: np.ndarray
+    """(T,) per candidate spot; 0 where the spot lands nowhere."""
+    ambient: float
+    """Projector off."""
+    flash: float | None
+    """The flash at the camera, or None when the dataset stores no flash images."""
+    samples: int
+    """Static samples averaged."""
+
+
+def _exposure_or_max(reference: torch.Tensor, cfg: SensorConfig) -> float:
+    """Auto-exposure, or the longest exposure for an all-black reference (nothing to meter on)."""
+    return auto_exposure(reference, cfg) if float(reference.max()) > 0 else cfg.max_exposure_s
+
+
+def scene_snr(scene_dir: str | Path) -> SceneSNR:
+    """SNR of every candidate spot, ambient only and the flash, from ``static.npz`` and ``samples/``."""
+    from ..scene import load_scene
+
+    scene_dir = Path(scene_dir)
+    st = np.load(scene_dir / "static.npz")
+    direct, ambient = torch.as_tensor(st["direct"]).double(), torch.as_tensor(st["ambient"]).double()
+    landed = np.asarray(st["spot_landed"], bool)
+    cfg = sensor_config(load_scene(scene_dir))
+    lit = np.flatnonzero(landed)
+    static_t = direct[lit] + ambient  # (L, H, W, 3) person-free photographs of the landed spots
+    exposures = torch.tensor([auto_exposure(img, cfg) for img in static_t], dtype=torch.float64)
+    amb_exposure = _exposure_or_max(ambient, cfg)
+    flash_direct = torch.as_tensor(st["flash_direct"]).double() if "flash_direct" in st.files else None
+    flash_exposure = _exposure_or_max(flash_direct + ambient, cfg) if flash_direct is not None else None
+    per_t, amb, flash = [], [], []
+    for path in sorted((scene_dir / "samples").glob("*.npz")):
+        z = np.load(path)
+        if int(z["trajectory"]) >= 0:
+            continue
+        f = torch.einsum("tr,rhwc->thwc", torch.as_tensor(z["transport_u"]).double()[lit],
+                         torch.as_tensor(z["transport_v"]).double())
+        na = torch.as_tensor(z["nlos_ambient"]).double()
+        row = np.zeros(len(landed))
+        row[lit] = snr_batch(f, static_t + f + na, exposures, cfg).numpy()
+        per_t.append(row)
+        amb.append(snr(na, ambient + na, amb_exposure, cfg))
+        if flash_direct is not None and "flash_nlos" in z.files:
+            fn = torch.as_tensor(z["flash_nlos"]).double()
+            flash.append(snr(fn, flash_direct + ambient + fn + na, flash_exposure, cfg))
+    if not per_t:
+        raise NlosError(f"{scene_dir}: no static samples to measure the NLOS SNR on")
+    return SceneSNR(np.mean(per_t, axis=0), float(np.mean(amb)), float(np.mean(flash)) if flash else None,
+                    len(per_t))
+
+
+def candidate_snr(scene_dir: str | Path) -> np.ndarray:
+    """(T,) mean NLOS SNR of each candidate spot of a stored scene (0 for spots that land nowhere)."""
+    return scene_snr(scene_dir).candidates

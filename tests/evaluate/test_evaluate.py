@@ -1,0 +1,107 @@
+"""``nlos evaluate``: metrics against hand computation, the report's files, resume, and CLI errors."""
+
+from __future__ import annotations
+
+import csv
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nlos_spotlight.cli import main as nlos
+from nlos_spotlight.data.config import DatasetConfig
+from nlos_spotlight.data.generate import generate
+from nlos_spotlight.evaluate.metrics import aggregate, per_class
+from nlos_spotlight.evaluate.predictions import Predictions
+from nlos_spotlight.lighting import Illumination
+from nlos_spotlight.train.config import TrainConfig
+from nlos_spotlight.train.loop import train
+
+MICRO = dict(name="micro-eval", seed=5, train_scenes=2, val_scenes=0, test_scenes=1, samples_per_scene=6,
+             trajectories_per_test_scene=1, trajectory_frames=5, resolution=12, los_vertices=40,
+             transport_rank=8, body_faces=600, pixel_samples=1, transport_pixel_samples=1, spot_samples=4,
+             person_samples=48)
+
+
+def test_per_class_matches_hand_computation():
+    p = Predictions()
+    rng = np.random.default_rng(0)
+    true = [0, 0, 1, 2, 5, 5, 5]
+    pred = [0, 1, 1, 2, 5, 0, 5]
+    for k, (t, q) in enumerate(zip(true, pred)):
+        p.scene.append("s")
+        p.sample.append(k)
+        xy = rng.uniform(0, 3, 2)
+        p.true_xy.append(xy)
+        p.pred_xy.append(xy + [0.03 * (k + 1), 0.04 * (k + 1)])  # error 5 (k + 1) cm
+        probs = np.full(6, 0.1)
+        probs[q] = 0.5
+        p.probs.append(probs)
+        p.true_posture.append(t)
+        p.trajectory.append((-1, -1))
+    p.trajectory[-1] = (0, 0)  # a walking frame: left out of the tables
+    r = per_class(p)
+    assert r["accuracy"]["standing"] == pytest.approx(50.0)
+    assert r["accuracy"]["unknown"] == pytest.approx(50.0)  # the third 'unknown' is a walking frame
+    assert r["accuracy"]["all"] == pytest.approx(100 * 4 / 6)
+    assert np.isnan(r["accuracy"]["hands_90"])
+    assert r["error_cm"]["standing"] == pytest.approx((5 + 10) / 2)
+    assert r["error_cm"]["all"] == pytest.approx(5 * np.mean(np.arange(1, 7)))
+    agg = aggregate([r, {m: {c: v + 2.0 for c, v in d.items()} for m, d in r.items()}])
+    m, s = agg["accuracy"]["all"]
+    assert m == pytest.approx(100 * 4 / 6 + 1) and s == pytest.approx(np.std([0, 2], ddof=1))
+
+
+@pytest.fixture(scope="module")
+def evaluated(tmp_path_factory):
+    root = tmp_path_factory.mktemp("eval")
+    data, run, report = root / "data", root / "run", root / "report"
+    generate(DatasetConfig(**MICRO), data, progress=False)
+    train(TrainConfig(steps=6, batch_size=4, ckpt_every=3, log_every=3), data, run, progress=False)
+    argv = ["evaluate", str(run), "--data", str(data), "--out", str(report), "--seeds", "2",
+            "--methods", "random_resnet,oracle_resnet", "--quiet"]
+    assert nlos(argv) == 0
+    return data, run, report, argv
+
+
+def test_report_files_and_numbers_agree_with_raw_predictions(evaluated):
+    data, run, report, _ = evaluated
+    for name in ("report.md", "report.html", "raw.csv", "summary.csv", "evaluation.json", "fig6_policies.png",
+                 "fig7_decimation.png", "fig5_tracking.png"):
+        assert (report / name).is_file(), name
+    html = (report / "report.html").read_text()
+    assert "data:image/png;base64," in html and not re.search(r'src="(?!data:)', html)  # opens offline
+    rows = list(csv.DictReader((report / "raw.csv").open()))
+    samples = 6 + 5  # static samples + one walk of 5 frames in the one test scene
+    assert len(rows) == 3 * 2 * samples  # methods x seeds x samples
+    summary = {(r["method"], r["seed"], r["metric"], r["column"]): float(r["value"])
+               for r in csv.DictReader((report / "summary.csv").open())}
+    for method in ("ours", "random_resnet", "oracle_resnet"):
+        for seed in ("0", "1"):
+            mine = [r for r in rows if r["method"] == method and r["seed"] == seed and int(r["trajectory"]) < 0]
+            err = np.mean([100 * np.hypot(float(r["pred_x"]) - float(r["true_x"]), float(r["pred_y"]) - float(r["true_y"]))
+                           for r in mine])
+            acc = 100 * np.mean([r["pred_posture"] == r["true_posture"] for r in mine])
+            assert summary[(method, seed, "error_cm", "all")] == pytest.approx(err, abs=1e-3)
+            assert summary[(method, seed, "accuracy", "all")] == pytest.approx(acc, abs=1e-3)
+    ev = json.loads((report / "evaluation.json").read_text())
+    assert ev["seeds"] == [0, 1] and set(ev["results"]) == {"ours", "random_resnet", "oracle_resnet"}
+    snr = ev["spot_snr_over_oracle"]
+    assert snr["oracle_resnet"][0] == pytest.approx(1.0) and all(0 <= v[0] <= 1 + 1e-9 for v in snr.values())
+
+
+def test_rerun_reuses_finished_runs(evaluated):
+    data, run, report, argv = evaluated
+    finals = sorted(run.glob("methods/*/seed*/final.pt"))
+    assert len(finals) == 2 * 2 + 1  # two baselines x two seeds, ours at its second seed
+    before = {p: p.stat().st_mtime_ns for p in finals}
+    assert nlos(argv) == 0
+    assert {p: p.stat().st_mtime_ns for p in finals} == before
+
+
+def test_cli_errors_are_one_line(tmp_path, capsys):
+    assert nlos(["evaluate", str(tmp_path), "--data", str(tmp_path), "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error:") and "\n" not in err and "config.json" in err
