@@ -17,7 +17,7 @@ import torch.nn.functional as F
 from ..lighting import POLICIES, Illumination
 from ..render.sensor import SensorConfig
 from ..train.checkpoint import TrainedModels
-from ..train.imaging import add_sensor_noise, form_images
+from ..train.imaging import form_images, photographs
 from ..train.scenes import SceneTensors
 
 
@@ -73,7 +73,9 @@ def predict_scene(models: TrainedModels, s: SceneTensors, ill: Illumination, gen
         for start in range(0, s.num_samples, batch):
             idx = torch.arange(start, min(start + batch, s.num_samples))
             images, person_free = form_images(s, idx, y, ill.mode)
-            p, logits = models.net(add_sensor_noise(images, person_free, sensor, generator))
+            images, background = photographs(images, person_free, sensor, generator,
+                                             background=models.config.net.background_subtract)
+            p, logits = models.net(images, background)
             pos.append(p.numpy())
             prob.append(F.softmax(logits, dim=1).numpy())
     return np.concatenate(pos), np.concatenate(prob)

@@ -1,9 +1,10 @@
 """The NLOS network: ResNet-18 features -> two MLP heads, (x, y) position and six postures.
 
 Each head is three fully connected layers with ReLU, then a last linear layer (DESIGN section 8).
-Input: the camera image in radiance units, normalized per image by its mean (exposure-invariant),
-optionally with the empty-room frame under the same spot subtracted first (a capture a user can
-make): ``background_subtract``.
+Input: the camera image in radiance units, or with ``background_subtract`` the photograph minus an
+empty-room photograph under the same illumination (a capture a user can make; the subtraction is
+done by the wrapper of ``models.registry`` for every network alike), divided per image by its root
+mean square (:func:`exposure_normalized`: exposure-invariant, and safe for signed differences).
 
 Shapes:
     images (B, H, W, 3) or (B, 3, H, W) -> position (B, 2) in meters, posture logits (B, 6).
@@ -31,7 +32,13 @@ class NLOSNetConfig:
     stem: str = "cifar"
     """ResNet stem: 'cifar' for small images, 'imagenet' for large ones."""
     background_subtract: bool = False
-    """Feed (image - empty-room image) with the image as a second 3-channel group."""
+    """Feed (photograph - empty-room photograph) instead of the photograph (``registry.PositionScaled``)."""
+
+
+def exposure_normalized(images: torch.Tensor) -> torch.Tensor:
+    """(B, H, W, 3) or (B, 3, H, W) -> (B, 3, H, W) divided per image by its root mean square."""
+    x = NLOSNet.channels_first(images)
+    return x / x.pow(2).mean(dim=(1, 2, 3), keepdim=True).sqrt().clamp(min=1e-20)
 
 
 class NLOSNet(nn.Module):
@@ -40,7 +47,7 @@ class NLOSNet(nn.Module):
     def __init__(self, cfg: NLOSNetConfig | None = None):
         super().__init__()
         self.cfg = cfg = cfg or NLOSNetConfig()
-        self.backbone = ResNet18(6 if cfg.background_subtract else 3, cfg.stem)
+        self.backbone = ResNet18(3, cfg.stem)
         h = cfg.head_hidden
         self.position_head = mlp([ResNet18.out_features, h, h, h, 2])
         self.posture_head = mlp([ResNet18.out_features, h, h, h, cfg.postures])
@@ -55,13 +62,6 @@ class NLOSNet(nn.Module):
         """(B, H, W, 3) -> (B, 3, H, W); channels-first input passes through."""
         return images.permute(0, 3, 1, 2) if images.shape[-1] == 3 and images.shape[1] != 3 else images
 
-    def forward(self, images: torch.Tensor, background: torch.Tensor | None = None):
-        x = self.channels_first(images)
-        scale = x.mean(dim=(1, 2, 3), keepdim=True).clamp(min=1e-12)  # exposure-free input
-        x = x / scale
-        if self.cfg.background_subtract:
-            if background is None:
-                raise ValueError("background_subtract needs the empty-room image")
-            x = torch.cat([x, x - self.channels_first(background) / scale], dim=1)
-        f = self.backbone(x)
+    def forward(self, images: torch.Tensor):
+        f = self.backbone(exposure_normalized(images))
         return self.position_head(f), self.posture_head(f)

@@ -29,16 +29,17 @@ class PositionScaled(nn.Module):
     """Wraps a network so that its position head predicts standardized coordinates.
 
     ``position = mean + std * head`` with the training set's target mean and std as buffers (saved
-    in every checkpoint): the head starts near the middle of the hidden region instead of at the
-    camera, several meters off, which would take hundreds of steps to unlearn.
+    in every checkpoint): the head starts near the middle of the hidden region, not meters off.
+    With ``subtract`` the network reads ``images - background`` (an empty-room photograph under
+    the same illumination), for every architecture alike.
 
     Shapes:
-        images (B, H, W, 3) -> position (B, 2) m, posture logits (B, 6).
+        images (B, H, W, 3), background (B, H, W, 3) or (H, W, 3) -> position (B, 2) m, logits (B, 6).
     """
 
-    def __init__(self, net: nn.Module):
+    def __init__(self, net: nn.Module, subtract: bool = False):
         super().__init__()
-        self.net = net
+        self.net, self.subtract = net, subtract
         self.register_buffer("position_mean", torch.zeros(2))
         self.register_buffer("position_std", torch.ones(2))
 
@@ -47,8 +48,12 @@ class PositionScaled(nn.Module):
         self.position_mean.copy_(targets.mean(0))
         self.position_std.copy_(targets.std(0).clamp(min=0.05) if len(targets) > 1 else torch.ones(2))
 
-    def forward(self, images: torch.Tensor, *args, **kwargs):
-        pos, logits = self.net(images, *args, **kwargs)
+    def forward(self, images: torch.Tensor, background: torch.Tensor | None = None):
+        if self.subtract:
+            if background is None:
+                raise ValueError("this network reads photograph - empty-room photograph: pass the background")
+            images = images - background
+        pos, logits = self.net(images)
         return self.position_mean + self.position_std * pos, logits
 
 
@@ -56,4 +61,5 @@ def build_network(arch: str, cfg: NLOSNetConfig | None = None) -> PositionScaled
     """A freshly initialized network of architecture ``arch``, position output standardized."""
     if arch not in NETWORKS:
         raise NlosError(f"network: unknown architecture '{arch}' (choose from {', '.join(NETWORKS)})")
-    return PositionScaled(NETWORKS[arch](cfg or NLOSNetConfig()))
+    cfg = cfg or NLOSNetConfig()
+    return PositionScaled(NETWORKS[arch](cfg), subtract=cfg.background_subtract)

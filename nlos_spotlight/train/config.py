@@ -68,10 +68,12 @@ class TrainConfig:
 
 PRESETS = {
     "tiny": TrainConfig(),
-    "demo": TrainConfig(name="demo", steps=200, batch_size=16, ckpt_every=50, log_every=10, snr_weight=1.0),
-    "small": TrainConfig(name="small", steps=600, batch_size=16, ckpt_every=100, log_every=20, snr_weight=1.0),
+    "demo": TrainConfig(name="demo", steps=200, batch_size=16, ckpt_every=50, log_every=10, snr_weight=1.0,
+                        net=NLOSNetConfig(background_subtract=True)),
+    "small": TrainConfig(name="small", steps=600, batch_size=16, ckpt_every=100, log_every=20, snr_weight=1.0,
+                         net=NLOSNetConfig(background_subtract=True)),
     "paper": TrainConfig(name="paper", steps=20000, batch_size=64, lr=1e-2, ien_lr_scale=1.0, ckpt_every=1000,
-                         log_every=100, snr_weight=1.0),
+                         log_every=100, snr_weight=1.0, net=NLOSNetConfig(background_subtract=True)),
 }
 
 

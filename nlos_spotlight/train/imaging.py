@@ -43,3 +43,15 @@ def add_sensor_noise(images: torch.Tensor, person_free: torch.Tensor, cfg: Senso
     var = (cfg.gain * mean + (cfg.gain * cfg.read_noise_binned_e) ** 2 + 1.0 / 12).detach()
     eps = torch.randn(images.shape, generator=generator, device=images.device, dtype=images.dtype)
     return (mean + var.sqrt() * eps) / k
+
+
+def photographs(images: torch.Tensor, person_free: torch.Tensor, cfg: SensorConfig, generator: torch.Generator | None,
+                noise: bool = True, background: bool = False) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """The network's inputs for noise-free ``images`` (B, H, W, 3): the photographs and, when
+    ``background``, an empty-room photograph per sample (B, H, W, 3) with its own noise, as a user
+    captures it before the person walks in under the same illumination (else None)."""
+    bg = person_free.expand_as(images) if background else None
+    if noise:
+        images = add_sensor_noise(images, person_free, cfg, generator)
+        bg = add_sensor_noise(bg, person_free, cfg, generator) if background else None
+    return images, bg

@@ -31,7 +31,7 @@ from ..models.ien import IEN
 from ..models.registry import build_network
 from ..render.sensor import SensorConfig
 from .config import TrainConfig
-from .imaging import add_sensor_noise, form_images
+from .imaging import form_images, photographs
 from .scenes import SceneTensors, load_split
 
 
@@ -134,9 +134,9 @@ class Trainer:
     def loss_on(self, s: SceneTensors, idx: torch.Tensor, train: bool = True) -> dict:
         y, mode, ien_logits = self.illumination(s, train)
         images, person_free = form_images(s, idx, y, mode)
-        if self.cfg.sensor_noise:
-            images = add_sensor_noise(images, person_free, self.sensor, self.gen)
-        pos, post = self.net_ddp(images)
+        images, background = photographs(images, person_free, self.sensor, self.gen, self.cfg.sensor_noise,
+                                         self.cfg.net.background_subtract)
+        pos, post = self.net_ddp(images, background)
         pos_loss = F.mse_loss(pos, s.target[idx])
         cls_loss = F.cross_entropy(post, s.posture[idx])
         err = (pos - s.target[idx]).norm(dim=1)

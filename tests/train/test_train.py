@@ -115,7 +115,7 @@ def test_snr_loss_alone_teaches_the_best_snr_spot():
     with torch.no_grad():
         p0 = torch.softmax(tr.ien(s.x, s.edge_index, s.faces), 0)
         expected = -float((p0 * snr).sum())
-    assert float(tr.loss_on(s, torch.arange(4))["spot_loss"]) == pytest.approx(expected, rel=1e-5)
+    assert float(tr.loss_on(s, torch.arange(4))["spot_loss"].detach()) == pytest.approx(expected, rel=1e-5)
     for _ in range(cfg.steps):
         tr.train_step()
     with torch.no_grad():

@@ -14,10 +14,7 @@ import torch
 from torch import nn
 
 
-def exposure_normalized(images: torch.Tensor) -> torch.Tensor:
-    """(B, H, W, 3) or (B, 3, H, W) -> (B, 3, H, W) divided per image by its mean."""
-    x = images.permute(0, 3, 1, 2) if images.shape[-1] == 3 and images.shape[1] != 3 else images
-    return x / x.mean(dim=(1, 2, 3), keepdim=True).clamp(min=1e-12)
+from ..nlos_net import exposure_normalized  # noqa: E402  (shared by every network)
 
 
 def conv_block(cin: int, cout: int, kernel: int, pool: bool = True) -> nn.Sequential:
@@ -56,8 +53,7 @@ class BaselineNet(nn.Module):
 
     @staticmethod
     def check_config(cfg, name: str) -> None:
-        if cfg.background_subtract:
-            raise ValueError(f"{name}: background_subtract is an option of the resnet18 network only")
+        """Every NLOSNetConfig option applies (background subtraction happens in the registry's wrapper)."""
 
     def reset_parameters(self) -> None:
         """He (Kaiming) initialization for convolutions, PyTorch defaults for the rest."""
