@@ -52,7 +52,7 @@ def policy_figure(panels: list[dict], path: Path) -> None:
     fig, axes = plt.subplots(2, n, figsize=(2.1 * n, 4.4), squeeze=False)
     for k, p in enumerate(panels):
         axes[0, k].imshow(tone_map(p["image"]))
-        axes[1, k].imshow(tone_map(np.clip(p["nlos"], 0, None)))
+        axes[1, k].imshow(tone_map(np.abs(p["nlos"])))  # |.|: under ambient light the person is a shadow
         if p["spot"] is not None:
             axes[0, k].plot(p["spot"][1] - 0.5, p["spot"][0] - 0.5, "+", color="cyan", ms=10, mew=2)
         axes[0, k].set_title(p["name"], fontsize=8)
@@ -60,7 +60,7 @@ def policy_figure(panels: list[dict], path: Path) -> None:
             ax.set_xticks([])
             ax.set_yticks([])
     axes[0, 0].set_ylabel("photograph", fontsize=8)
-    axes[1, 0].set_ylabel("person's light", fontsize=8)
+    axes[1, 0].set_ylabel("|person's light|", fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
