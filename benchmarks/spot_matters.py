@@ -11,6 +11,9 @@ Per scene SNR_t is averaged over the static samples; then
 * random: the mean over candidates whose spot lands (the expected value of a random choice),
 * ambient only: no projector; the signal is ``nlos_ambient``, exposure on ``ambient``.
 
+Also, in radiance (before any exposure): the person's light with the projector off over the
+person's light under the oracle spot, sum |nlos_ambient| / sum |nlos_oracle| ("amb/or light").
+
 The SNR and the center choice are the package's (``nlos_spotlight.lighting.snr``, ``.center``).
 
     python benchmarks/spot_matters.py --data DIR [--split test]
@@ -29,6 +32,19 @@ from nlos_spotlight.lighting.snr import scene_snr
 from nlos_spotlight.scene import load_scene
 
 
+def ambient_light_ratio(scene_dir: Path, oracle: int) -> float:
+    """sum |nlos_ambient| / sum |nlos under the oracle spot| over a scene's static samples (radiance)."""
+    amb, spot_sum = 0.0, 0.0
+    for path in sorted((scene_dir / "samples").glob("*.npz")):
+        with np.load(path) as z:
+            if int(z["trajectory"]) >= 0:
+                continue
+            spot = np.einsum("r,rhwc->hwc", z["transport_u"][oracle], z["transport_v"])
+            amb += float(np.abs(z["nlos_ambient"]).sum())
+            spot_sum += float(np.abs(spot).sum())
+    return amb / max(spot_sum, 1e-30)
+
+
 def scene_snrs(scene_dir: Path) -> dict:
     st = np.load(scene_dir / "static.npz")
     landed = st["spot_landed"]
@@ -37,7 +53,8 @@ def scene_snrs(scene_dir: Path) -> dict:
     center = center_candidate(load_scene(scene_dir).camera, st["aim_points"], landed)
     return {"oracle": float(mean_t.max()), "center": float(mean_t[center]),
             "random": float(mean_t[landed].mean()), "ambient_only": r.ambient,
-            "family": str(st["family"]), "candidates": int(landed.sum())}
+            "family": str(st["family"]), "candidates": int(landed.sum()),
+            "ambient_light_ratio": ambient_light_ratio(scene_dir, int(mean_t.argmax()))}
 
 
 def main() -> None:
@@ -50,16 +67,19 @@ def main() -> None:
     manifest = json.loads((root / "manifest.json").read_text())
     rows = {s["id"]: scene_snrs(root / "scenes" / s["id"]) for s in manifest["splits"][args.split]}
     print(f"{'scene':12s} {'family':18s} {'T':>4s} {'oracle':>9s} {'center':>9s} {'random':>9s} {'ambient':>9s} "
-          f"{'or/cen':>7s} {'or/rnd':>7s}")
+          f"{'or/cen':>7s} {'or/rnd':>7s} {'amb/or light':>12s}")
     for sid, r in rows.items():
         print(f"{sid:12s} {r['family']:18s} {r['candidates']:4d} {r['oracle']:9.3g} {r['center']:9.3g} "
               f"{r['random']:9.3g} {r['ambient_only']:9.3g} {r['oracle'] / r['center']:7.2f} "
-              f"{r['oracle'] / r['random']:7.2f}")
+              f"{r['oracle'] / r['random']:7.2f} {r['ambient_light_ratio']:12.3f}")
     mean = {k: float(np.mean([r[k] for r in rows.values()])) for k in ("oracle", "center", "random", "ambient_only")}
     print(f"mean SNR: oracle {mean['oracle']:.3g}, center {mean['center']:.3g}, random {mean['random']:.3g}, "
           f"ambient only {mean['ambient_only']:.3g}")
     print(f"oracle / center = {mean['oracle'] / mean['center']:.2f}x, oracle / random = "
           f"{mean['oracle'] / mean['random']:.2f}x (target >= 3x each)")
+    ratios = [r["ambient_light_ratio"] for r in rows.values()]
+    print(f"projector-off person light / oracle-spot person light (radiance): median {np.median(ratios):.3f}, "
+          f"range {min(ratios):.3f}-{max(ratios):.3f}")
     if args.json:
         Path(args.json).write_text(json.dumps({"scenes": rows, "mean": mean}, indent=1))
 
