@@ -46,6 +46,7 @@ from ..errors import NlosError
 from ..render.camera import camera_frame, pixel_rays
 from ..render.rays import RayEngine
 from ..scene.format import Camera, TriMesh
+from ..scene.orient import fibonacci_sphere
 from ..train.checkpoint import TrainedModels
 from ..train.scenes import graph_inputs
 
@@ -105,14 +106,6 @@ def _camera(position, look_at, up=(0.0, 0.0, 1.0), fov: float = DEFAULT_FOV_DEG,
     return Camera.from_dict({"position": [float(v) for v in position], "look_at": [float(v) for v in look_at],
                              "up": [float(v) for v in up], "fov_deg": float(fov), "width": int(width),
                              "height": int(height)})
-
-
-def _fibonacci_directions(n: int) -> np.ndarray:
-    k = np.arange(n) + 0.5
-    z = 1 - 2 * k / n
-    phi = np.pi * (1 + 5 ** 0.5) * k
-    r = np.sqrt(1 - z * z)
-    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
 
 
 def rotation_to_z(up: np.ndarray) -> np.ndarray:
@@ -176,7 +169,7 @@ def default_camera(mesh: TriMesh, engine: RayEngine) -> Camera:
     height = max(hi[2] - lo[2], 1e-3)
     center = (lo + hi) / 2
     eye, look_z = lo[2] + min(EYE_HEIGHT_M, 0.6 * height), lo[2] + min(LOOK_HEIGHT_M, 0.4 * height)
-    sphere = _fibonacci_directions(256)
+    sphere = fibonacci_sphere(256)
     best, best_score = None, -1.0
     for axis in (0, 1):
         extent = hi[axis] - lo[axis]

@@ -8,8 +8,6 @@ oracle, ``raw.csv`` (every prediction), ``summary.csv`` (every table number per 
 
 from __future__ import annotations
 
-import csv
-import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,15 +15,13 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..errors import NlosError
 from ..train.checkpoint import load_trained
-from ..train.scenes import load_split
-from ..world.body import POSTURES
+from ..train.scenes import load_scene_tensors, split_ids
 from . import decimation as dec
-from .methods import METHODS, TABLE3, BY_NAME, Method, select
-from .metrics import COLUMNS, aggregate, fmt, per_class
+from .methods import BY_NAME, Method, select
+from .metrics import per_class
 from .predictions import Predictions, evaluate_models, predict_scene
-from .runs import ensure_run, run_config, seeds_of
+from .runs import ensure_run, run_config, run_path, seeds_of
 
 PAPER = {"accuracy": 96.1, "error_cm": 8.10, "latency_ms": 7.0}
 """The WACV 2024 paper's synthetic results (ours): posture accuracy %, mean error cm, ms per estimate."""
@@ -49,32 +45,14 @@ class Evaluation:
     seconds: dict[str, float] = field(default_factory=dict)
 
 
-def _has_flash(data: Path, ids: list[str]) -> bool:
-    with np.load(data / "scenes" / ids[0] / "static.npz") as z:
-        return "flash_direct" in z.files
-
-
-def test_ids(data: Path) -> list[str]:
-    try:
-        manifest = json.loads((data / "manifest.json").read_text())
-    except FileNotFoundError:
-        raise NlosError(f"{data}: no manifest.json (not a finished nlos dataset)") from None
-    except json.JSONDecodeError:
-        raise NlosError(f"{data}/manifest.json: corrupted (invalid JSON)") from None
-    ids = [s["id"] for s in manifest["splits"].get("test", [])]
-    if not ids:
-        raise NlosError(f"{data}: the test split is empty")
-    return ids
-
-
 def run_all(run_dir: Path, data: Path, seeds: int, names: list[str] | None, progress: bool) -> Evaluation:
     from ..console import console
 
     base = run_config(run_dir)
-    ids = test_ids(data)
+    ids = split_ids(data, "test")
     ev = Evaluation(select(names), seeds_of(base, seeds), ids)
-    scenes = load_split(data, "test", base.ien_features)
-    flash = _has_flash(data, ids)
+    scenes = [load_scene_tensors(data / "scenes" / sid, base.ien_features) for sid in ids]
+    flash = scenes[0].flash_direct is not None
     for m in ev.methods:
         if m.policy == "flash" and not flash:
             ev.skipped[m.name] = "the dataset stores no flash images"
@@ -100,14 +78,10 @@ def fmt_short(r: dict) -> str:
 
 def decimation_study(run_dir: Path, base, ev: Evaluation, scenes) -> dict:
     """Fig. 7: ours at every seed, on every test scene, with the IEN reading decimated dense meshes."""
-    from .metrics import per_class as pc
-
     acc = np.zeros((len(ev.seeds), len(dec.RATIOS)))
     err = np.zeros_like(acc)
     snaps, verts = [], []
     for i, seed in enumerate(ev.seeds):
-        from .runs import run_path
-
         models = load_trained(run_path(run_dir, base, BY_NAME["ours"], seed))
         per_scene = [dec.choices(models, s) for s in scenes]
         for j in range(len(dec.RATIOS)):
@@ -115,18 +89,10 @@ def decimation_study(run_dir: Path, base, ev: Evaluation, scenes) -> dict:
             gen = torch.Generator().manual_seed(20_000 + seed)
             for s, sid, ch in zip(scenes, ev.scene_ids, per_scene):
                 c = ch[j]
-                pos, prob = predict_scene(models, s, dec.as_illumination(c), gen)
+                p.add_scene(sid, s, *predict_scene(models, s, dec.as_illumination(c), gen))
                 snaps.append(c.snap_m)
                 verts.append(c.vertices)
-                for k in range(s.num_samples):
-                    p.scene.append(sid)
-                    p.sample.append(k)
-                    p.true_xy.append(s.target[k].numpy())
-                    p.pred_xy.append(pos[k])
-                    p.true_posture.append(int(s.posture[k]))
-                    p.probs.append(prob[k])
-                    p.trajectory.append(tuple(int(v) for v in s.trajectory[k]))
-            r = pc(p)
+            r = per_class(p)
             acc[i, j], err[i, j] = r["accuracy"]["all"], r["error_cm"]["all"]
     return {"ratios": list(dec.RATIOS), "accuracy": acc.tolist(), "error_cm": err.tolist(),
             "snap_m_mean": float(np.mean(snaps)), "dense_vertices": int(max(verts))}

@@ -42,6 +42,17 @@ class Predictions:
     spots: dict[str, Illumination] = field(default_factory=dict)
     """Scene id -> the illumination used there."""
 
+    def add_scene(self, sid: str, s: SceneTensors, pos: np.ndarray, prob: np.ndarray) -> None:
+        """Append every sample of scene ``s``: predicted positions (N, 2) and probabilities (N, 6)."""
+        for i in range(s.num_samples):
+            self.scene.append(sid)
+            self.sample.append(i)
+            self.true_xy.append(s.target[i].numpy())
+            self.pred_xy.append(pos[i])
+            self.true_posture.append(int(s.posture[i]))
+            self.probs.append(prob[i])
+            self.trajectory.append(tuple(int(v) for v in s.trajectory[i]))
+
     def arrays(self) -> dict[str, np.ndarray]:
         return {"true_xy": np.array(self.true_xy).reshape(-1, 2), "pred_xy": np.array(self.pred_xy).reshape(-1, 2),
                 "true_posture": np.array(self.true_posture, dtype=int),
@@ -88,13 +99,5 @@ def evaluate_models(models: TrainedModels, scenes: list[SceneTensors], ids: list
     for k, (s, sid) in enumerate(zip(scenes, ids)):
         ill = illumination_for(models, s, k, seed)
         out.spots[sid] = ill
-        pos, prob = predict_scene(models, s, ill, gen)
-        for i in range(s.num_samples):
-            out.scene.append(sid)
-            out.sample.append(i)
-            out.true_xy.append(s.target[i].numpy())
-            out.pred_xy.append(pos[i])
-            out.true_posture.append(int(s.posture[i]))
-            out.probs.append(prob[i])
-            out.trajectory.append(tuple(int(v) for v in s.trajectory[i]))
+        out.add_scene(sid, s, *predict_scene(models, s, ill, gen))
     return out

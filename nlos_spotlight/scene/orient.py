@@ -50,7 +50,7 @@ _COS = np.cos(np.radians(PLANE_DEG))
 _SIN = np.sin(np.radians(PLANE_DEG))
 
 
-def _fibonacci_sphere(n: int) -> np.ndarray:
+def fibonacci_sphere(n: int) -> np.ndarray:
     """(n, 3) nearly uniform unit directions."""
     i = np.arange(n) + 0.5
     z = 1.0 - 2.0 * i / n
@@ -65,7 +65,7 @@ def _sphere_grid() -> tuple[np.ndarray, "object", "object"]:
     (N, N) 0/1 matrix of pairs within PLANE_DEG: built once, reused."""
     from scipy.spatial import cKDTree
 
-    grid = _fibonacci_sphere(4000)
+    grid = fibonacci_sphere(4000)
     tree = cKDTree(grid)
     chord = 2.0 * np.sin(np.radians(PLANE_DEG) / 2.0)
     near = tree.sparse_distance_matrix(tree, chord, output_type="coo_matrix").tocsr()

@@ -125,7 +125,8 @@ def load_scene_tensors(scene_dir: Path, features: list[str]) -> SceneTensors:
         scene_dir=str(scene_dir))
 
 
-def load_split(data_dir: str | Path, split: str, features: list[str]) -> list[SceneTensors]:
+def split_ids(data_dir: str | Path, split: str) -> list[str]:
+    """Scene ids of a finished dataset's split (NlosError when unfinished, corrupted or empty)."""
     data_dir = Path(data_dir)
     try:
         manifest = json.loads((data_dir / "manifest.json").read_text())
@@ -133,7 +134,11 @@ def load_split(data_dir: str | Path, split: str, features: list[str]) -> list[Sc
         raise NlosError(f"{data_dir}: no manifest.json (not a finished nlos dataset)") from None
     except json.JSONDecodeError:
         raise NlosError(f"{data_dir}/manifest.json: corrupted (invalid JSON)") from None
-    scenes = manifest["splits"].get(split, [])
-    if not scenes:
+    ids = [s["id"] for s in manifest["splits"].get(split, [])]
+    if not ids:
         raise NlosError(f"{data_dir}: split '{split}' is empty")
-    return [load_scene_tensors(data_dir / "scenes" / s["id"], features) for s in scenes]
+    return ids
+
+
+def load_split(data_dir: str | Path, split: str, features: list[str]) -> list[SceneTensors]:
+    return [load_scene_tensors(Path(data_dir) / "scenes" / sid, features) for sid in split_ids(data_dir, split)]

@@ -44,16 +44,6 @@ def _checkpoint(path: Path, **cfg) -> Path:
     return path
 
 
-@pytest.fixture(scope="module", autouse=True)
-def _one_thread():
-    """Tiny 8x8 batches: on a shared 2-core machine, OpenMP threads that wait for each other
-    cost far more than they parallelize (measured 1.1 s vs 0.04 s per forward under load)."""
-    n = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(n)
-
-
 @pytest.fixture(scope="module")
 def ckpt(tmp_path_factory) -> Path:
     return _checkpoint(tmp_path_factory.mktemp("run") / "final.pt")

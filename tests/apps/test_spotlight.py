@@ -31,15 +31,6 @@ EXAMPLE = Path(__file__).resolve().parents[2] / "nlos_spotlight" / "assets" / "e
 SCANS_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "real-scans"
 
 
-@pytest.fixture(scope="module", autouse=True)
-def _one_thread():
-    """Small graphs: on a shared 2-core machine waiting OpenMP threads cost more than they give."""
-    n = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(n)
-
-
 @pytest.fixture(scope="module")
 def ckpt(tmp_path_factory) -> Path:
     """An IEN with spread-out logits (random weights, scaled up) in a checkpoint with normals."""

@@ -5,7 +5,6 @@ from __future__ import annotations
 import csv
 import json
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,7 +14,6 @@ from nlos_spotlight.data.config import DatasetConfig
 from nlos_spotlight.data.generate import generate
 from nlos_spotlight.evaluate.metrics import aggregate, per_class
 from nlos_spotlight.evaluate.predictions import Predictions
-from nlos_spotlight.lighting import Illumination
 from nlos_spotlight.train.config import TrainConfig
 from nlos_spotlight.train.loop import train
 
