@@ -19,6 +19,7 @@ from PIL import Image
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "train"))
 from toy import toy_scene  # noqa: E402
+from app_fixtures import _one_thread  # noqa: E402,F401  (autouse: one torch thread)
 
 from nlos_spotlight.apps.images import (Frames, area_resize, expand_inputs, load_frames,  # noqa: E402
                                         read_image, read_png16, srgb_to_linear)

@@ -14,6 +14,7 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "train"))
 from toy import toy_scene  # noqa: E402
+from app_fixtures import _one_thread  # noqa: E402,F401  (autouse: one torch thread)
 
 from nlos_spotlight.apps.spotlight import (aim_projector, default_camera, load_setup, spotlight,  # noqa: E402
                                            visible_mesh)

@@ -1,4 +1,4 @@
-"""Shared by the app tests."""
+"""Fixtures shared by the app tests (not a conftest.py: tests/conftest.py is imported by name)."""
 
 from __future__ import annotations
 
