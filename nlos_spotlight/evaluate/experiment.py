@@ -35,7 +35,11 @@ class Evaluation:
     seeds: list[int]
     scene_ids: list[str]
     preds: dict[str, dict[int, Predictions]] = field(default_factory=dict)
-    """method -> seed -> predictions on the test split."""
+    """method -> seed -> predictions on the test split (unseen rooms)."""
+    seen: dict[str, dict[int, Predictions]] = field(default_factory=dict)
+    """method -> seed -> predictions on the held-out samples of the training rooms (seen rooms)."""
+    seen_ids: list[str] = field(default_factory=list)
+    """Training rooms with held-out samples (empty when the run held none out)."""
     skipped: dict[str, str] = field(default_factory=dict)
     """method -> why it was not run."""
     decimation: dict = field(default_factory=dict)
@@ -52,6 +56,7 @@ def run_all(run_dir: Path, data: Path, seeds: int, names: list[str] | None, prog
     ids = split_ids(data, "test")
     ev = Evaluation(select(names), seeds_of(base, seeds), ids)
     scenes = [load_scene_tensors(data / "scenes" / sid, base.ien_features) for sid in ids]
+    ev.seen_ids, seen = seen_rooms(data, base)
     flash = scenes[0].flash_direct is not None
     for m in ev.methods:
         if m.policy == "flash" and not flash:
@@ -63,13 +68,29 @@ def run_all(run_dir: Path, data: Path, seeds: int, names: list[str] | None, prog
             t0 = time.perf_counter()
             path = ensure_run(run_dir, base, m, seed, data, progress)
             ev.seconds[f"train {m.name} seed{seed}"] = time.perf_counter() - t0
-            ev.preds[m.name][seed] = evaluate_models(load_trained(path), scenes, ids, seed)
-            console.print(f"{m.name} seed {seed}: {fmt_short(per_class(ev.preds[m.name][seed]))}")
+            models = load_trained(path)
+            ev.preds[m.name][seed] = evaluate_models(models, scenes, ids, seed)
+            msg = f"{m.name} seed {seed}: unseen rooms {fmt_short(per_class(ev.preds[m.name][seed]))}"
+            if seen:
+                ev.seen.setdefault(m.name, {})[seed] = evaluate_models(models, seen, ev.seen_ids, seed, seen=True)
+                msg += f"; seen rooms {fmt_short(per_class(ev.seen[m.name][seed]))}"
+            console.print(msg)
     t0 = time.perf_counter()
     ev.decimation = decimation_study(run_dir, base, ev, scenes)
     ev.seconds["decimation study"] = time.perf_counter() - t0
     ev.snr = spot_snr(ev, data)
     return ev
+
+
+def seen_rooms(data: Path, base) -> tuple[list[str], list]:
+    """Training rooms reduced to the samples the run held out of training (``holdout_every``)."""
+    if base.holdout_every <= 0:
+        return [], []
+    from ..train.scenes import holdout_mask
+
+    ids = split_ids(data, "train")
+    rooms = [load_scene_tensors(data / "scenes" / sid, base.ien_features) for sid in ids]
+    return ids, [s.subset(torch.nonzero(holdout_mask(s, base.holdout_every)).flatten()) for s in rooms]
 
 
 def fmt_short(r: dict) -> str:

@@ -66,11 +66,16 @@ def ien_illumination(models: TrainedModels, s: SceneTensors) -> Illumination:
     return Illumination("spot", int(logits.argmax()))
 
 
-def illumination_for(models: TrainedModels, s: SceneTensors, scene_index: int, seed: int) -> Illumination:
+def illumination_for(models: TrainedModels, s: SceneTensors, scene_index: int, seed: int,
+                     seen: bool = False) -> Illumination:
+    """The method's illumination of scene ``s``. In a training room (``seen``, ``scene_index`` its
+    index in the train split) a fixed policy keeps the spot it was trained with (``train.loop``'s
+    draw), as a user would; in a new room the Random policy draws afresh."""
     policy = models.config.policy
     if policy == "ien":
         return ien_illumination(models, s)
-    return POLICIES[policy](s, Path(s.scene_dir), np.random.default_rng([seed, 7919, scene_index]))
+    key = [models.config.seed, scene_index] if seen else [seed, 7919, scene_index]
+    return POLICIES[policy](s, Path(s.scene_dir), np.random.default_rng(key))
 
 
 def predict_scene(models: TrainedModels, s: SceneTensors, ill: Illumination, generator: torch.Generator,
@@ -92,12 +97,14 @@ def predict_scene(models: TrainedModels, s: SceneTensors, ill: Illumination, gen
     return np.concatenate(pos), np.concatenate(prob)
 
 
-def evaluate_models(models: TrainedModels, scenes: list[SceneTensors], ids: list[str], seed: int) -> Predictions:
-    """Predictions of one trained method on every sample of the test scenes."""
+def evaluate_models(models: TrainedModels, scenes: list[SceneTensors], ids: list[str], seed: int,
+                    seen: bool = False) -> Predictions:
+    """Predictions of one trained method on every sample of ``scenes``: the test rooms, or with
+    ``seen`` the held-out samples of the training rooms (in train-split order)."""
     out = Predictions()
-    gen = torch.Generator().manual_seed(10_000 + seed)  # the same noise draws for every method of a seed
+    gen = torch.Generator().manual_seed(10_000 + seed + 5_000 * seen)  # the same noise for every method of a seed
     for k, (s, sid) in enumerate(zip(scenes, ids)):
-        ill = illumination_for(models, s, k, seed)
+        ill = illumination_for(models, s, k, seed, seen)
         out.spots[sid] = ill
         out.add_scene(sid, s, *predict_scene(models, s, ill, gen))
     return out

@@ -43,6 +43,8 @@ class TrainConfig:
     """Spot policy: 'ien' (learned end to end) or a fixed one of ``lighting.POLICIES`` (IEN not trained)."""
     snr_weight: float = 0.0
     """Weight of the auxiliary spot loss -sum_t p_t SNR_t / max SNR (0: the paper's task loss only)."""
+    holdout_every: int = 0
+    """Hold every n-th static sample of each training room out of training (the seen-rooms test; 0: none)."""
     ien_features: list[str] = field(default_factory=lambda: ["normals"])
     """Extra IEN vertex features besides coordinates: 'normals'."""
     ien: IENConfig = field(default_factory=IENConfig)
@@ -69,11 +71,11 @@ class TrainConfig:
 PRESETS = {
     "tiny": TrainConfig(),
     "demo": TrainConfig(name="demo", steps=200, batch_size=16, ckpt_every=50, log_every=10, snr_weight=1.0,
-                        net=NLOSNetConfig(background_subtract=True)),
+                        holdout_every=6, net=NLOSNetConfig(background_subtract=True)),
     "small": TrainConfig(name="small", steps=600, batch_size=16, ckpt_every=100, log_every=20, snr_weight=1.0,
-                         net=NLOSNetConfig(background_subtract=True)),
+                         holdout_every=6, net=NLOSNetConfig(background_subtract=True)),
     "paper": TrainConfig(name="paper", steps=20000, batch_size=64, lr=1e-2, ien_lr_scale=1.0, ckpt_every=1000,
-                         log_every=100, snr_weight=1.0, net=NLOSNetConfig(background_subtract=True)),
+                         log_every=100, snr_weight=1.0, holdout_every=6, net=NLOSNetConfig(background_subtract=True)),
 }
 
 

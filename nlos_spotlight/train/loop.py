@@ -32,7 +32,7 @@ from ..models.registry import build_network
 from ..render.sensor import SensorConfig
 from .config import TrainConfig
 from .imaging import form_images, photographs
-from .scenes import SceneTensors, load_split
+from .scenes import SceneTensors, holdout_mask, load_split
 
 
 CHECKPOINT_FORMAT = "nlos-checkpoint/1"
@@ -193,6 +193,13 @@ class Trainer:
         self.step = st["step"]
 
 
+def training_samples(scenes: list[SceneTensors], holdout_every: int) -> list[SceneTensors]:
+    """The training rooms without their held-out samples (``scenes.holdout_mask``)."""
+    if holdout_every <= 0:
+        return scenes
+    return [s.subset(torch.nonzero(~holdout_mask(s, holdout_every)).flatten()) for s in scenes]
+
+
 def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool = False,
           progress: bool = True) -> Trainer:
     """Train (or resume) a run in ``out``: config.json, metrics.csv, checkpoint.pt, final.pt."""
@@ -207,7 +214,7 @@ def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool 
     ckpt = out / "checkpoint.pt"
     if (out / "config.json").exists() and not resume and ckpt.exists():
         raise NlosError(f"{out} holds a run; pass --resume to continue it or choose another --out")
-    scenes = load_split(data_dir, "train", cfg.ien_features)
+    scenes = training_samples(load_split(data_dir, "train", cfg.ien_features), cfg.holdout_every)
     tr = Trainer(cfg, scenes, out)
     if resume and ckpt.exists():
         tr.load(ckpt)

@@ -64,6 +64,28 @@ class SceneTensors:
     def num_samples(self) -> int:
         return len(self.posture)
 
+    def subset(self, idx: torch.Tensor) -> "SceneTensors":
+        """The same room with only samples ``idx`` (room tensors shared, per-sample ones indexed)."""
+        take = lambda k, v: v[idx] if k in PER_SAMPLE and v is not None else v
+        return SceneTensors(**{k: take(k, getattr(self, k)) for k in self.__dataclass_fields__})
+
+
+PER_SAMPLE = ("u", "v", "nlos_ambient", "target", "posture", "trajectory", "flash_nlos")
+"""SceneTensors fields indexed by sample (the rest describe the room)."""
+
+
+def holdout_mask(s: SceneTensors, every: int) -> torch.Tensor:
+    """(N,) bool: the static samples k with k % every == every - 1, held out of training (seen-rooms test).
+
+    Postures are a random permutation per room (``data.scene_builder``), so the held-out samples
+    are a posture-mixed sample of every training room; ``every`` 0 holds out nothing.
+    """
+    k = torch.arange(s.num_samples, device=s.posture.device)
+    static = s.trajectory[:, 0] < 0
+    if every <= 0:
+        return torch.zeros_like(static)
+    return static & (k % every == every - 1)
+
 
 def ground_frame(pos_xy: np.ndarray, origin_xy: np.ndarray, fwd_xy: np.ndarray) -> np.ndarray:
     """World floor points (N, 2) -> (along the view, to the left of it) relative to ``origin_xy``.

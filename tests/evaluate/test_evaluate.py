@@ -8,6 +8,7 @@ import re
 
 import numpy as np
 import pytest
+import torch
 
 from nlos_spotlight.cli import main as nlos
 from nlos_spotlight.data.config import DatasetConfig
@@ -57,7 +58,7 @@ def evaluated(tmp_path_factory):
     root = tmp_path_factory.mktemp("eval")
     data, run, report = root / "data", root / "run", root / "report"
     generate(DatasetConfig(**MICRO), data, progress=False)
-    train(TrainConfig(steps=6, batch_size=4, ckpt_every=3, log_every=3), data, run, progress=False)
+    train(TrainConfig(steps=6, batch_size=4, ckpt_every=3, log_every=3, holdout_every=3), data, run, progress=False)
     argv = ["evaluate", str(run), "--data", str(data), "--out", str(report), "--seeds", "2",
             "--methods", "random_resnet,oracle_resnet", "--quiet"]
     assert nlos(argv) == 0
@@ -88,6 +89,34 @@ def test_report_files_and_numbers_agree_with_raw_predictions(evaluated):
     assert ev["seeds"] == [0, 1] and set(ev["results"]) == {"ours", "random_resnet", "oracle_resnet"}
     snr = ev["spot_snr_over_oracle"]
     assert snr["oracle_resnet"][0] == pytest.approx(1.0) and all(0 <= v[0] <= 1 + 1e-9 for v in snr.values())
+
+
+def test_seen_rooms_are_the_held_out_samples_under_the_training_spot(evaluated):
+    from nlos_spotlight.evaluate.experiment import seen_rooms
+    from nlos_spotlight.evaluate.predictions import illumination_for
+    from nlos_spotlight.evaluate.runs import run_config
+    from nlos_spotlight.train.checkpoint import load_trained
+    from nlos_spotlight.train.loop import fixed_illuminations, training_samples
+    from nlos_spotlight.train.scenes import load_split
+
+    data, run, report, _ = evaluated
+    base = run_config(run)
+    ids, seen = seen_rooms(data, base)
+    full = load_split(data, "train", base.ien_features)
+    trained = training_samples(full, base.holdout_every)
+    for s, held, fit in zip(full, seen, trained):
+        assert held.num_samples == 2 and fit.num_samples == 4  # samples 2 and 5 of 6 held out
+        # held-out and training samples partition the room: no target appears in both
+        both = torch.cat([held.target, fit.target])
+        assert torch.equal(both.sort(0).values, s.target.sort(0).values)
+        assert not any(torch.equal(a, b) for a in held.target for b in fit.target)
+    ev = json.loads((report / "evaluation.json").read_text())
+    assert ev["seen_rooms"] == ids and set(ev["results_seen_rooms"]) == {"ours", "random_resnet", "oracle_resnet"}
+    models = load_trained(run / "methods" / "random_resnet" / "seed1")
+    train_spots = fixed_illuminations(models.config, full)
+    for k, s in enumerate(seen):
+        assert illumination_for(models, s, k, 1, seen=True).face == train_spots[k].face
+    assert "Seen rooms" in (report / "report.md").read_text()
 
 
 def test_rerun_reuses_finished_runs(evaluated):
