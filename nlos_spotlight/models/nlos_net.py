@@ -33,6 +33,20 @@ class NLOSNetConfig:
     """ResNet stem: 'cifar' for small images, 'imagenet' for large ones."""
     background_subtract: bool = False
     """Feed (photograph - empty-room photograph) instead of the photograph (``registry.PositionScaled``)."""
+    coord_channels: bool = False
+    """Append the pixel's (x, y) in [-1, 1] as two input channels (CoordConv, Liu et al. NeurIPS 2018)."""
+
+
+def with_coordinates(x: torch.Tensor) -> torch.Tensor:
+    """(B, C, H, W) -> (B, C + 2, H, W): x then y pixel-center coordinates in [-1, 1] appended.
+
+    Global average pooling makes a CNN blind to where the person's light falls in the frame, and
+    where it falls is what encodes the position; coordinate channels give it back (Liu et al. 2018).
+    """
+    b, _, h, w = x.shape
+    ys = torch.linspace(-1, 1, h, device=x.device, dtype=x.dtype).view(1, 1, h, 1).expand(b, 1, h, w)
+    xs = torch.linspace(-1, 1, w, device=x.device, dtype=x.dtype).view(1, 1, 1, w).expand(b, 1, h, w)
+    return torch.cat([x, xs, ys], dim=1)
 
 
 def exposure_normalized(images: torch.Tensor) -> torch.Tensor:
@@ -47,7 +61,7 @@ class NLOSNet(nn.Module):
     def __init__(self, cfg: NLOSNetConfig | None = None):
         super().__init__()
         self.cfg = cfg = cfg or NLOSNetConfig()
-        self.backbone = ResNet18(3, cfg.stem)
+        self.backbone = ResNet18(3 + 2 * cfg.coord_channels, cfg.stem)
         h = cfg.head_hidden
         self.position_head = mlp([ResNet18.out_features, h, h, h, 2])
         self.posture_head = mlp([ResNet18.out_features, h, h, h, cfg.postures])
@@ -63,5 +77,6 @@ class NLOSNet(nn.Module):
         return images.permute(0, 3, 1, 2) if images.shape[-1] == 3 and images.shape[1] != 3 else images
 
     def forward(self, images: torch.Tensor):
-        f = self.backbone(exposure_normalized(images))
+        x = exposure_normalized(images)
+        f = self.backbone(with_coordinates(x) if self.cfg.coord_channels else x)
         return self.position_head(f), self.posture_head(f)

@@ -22,7 +22,9 @@ class TrainConfig:
     steps: int = 40
     """Optimizer steps."""
     batch_size: int = 8
-    """Samples per step (all from one scene: the IEN sees one mesh per step)."""
+    """Samples per step, split evenly over ``scenes_per_step`` scenes."""
+    scenes_per_step: int = 1
+    """Scenes (rooms) per step, each under its own spot; more than one gives batch norm a mix of rooms."""
     lr: float = 1e-3
     """Adam learning rate (the paper: 1e-2)."""
     weight_decay: float = 1e-5
@@ -42,7 +44,9 @@ class TrainConfig:
     policy: str = "ien"
     """Spot policy: 'ien' (learned end to end) or a fixed one of ``lighting.POLICIES`` (IEN not trained)."""
     snr_weight: float = 0.0
-    """Weight of the auxiliary spot loss -sum_t p_t SNR_t / max SNR (0: the paper's task loss only)."""
+    """Weight of the auxiliary spot loss: cross-entropy to softmax(SNR / max SNR / snr_tau) (0: task loss only)."""
+    snr_tau: float = 0.05
+    """Temperature of that target: candidates 0.05 below the best SNR (relative) get e^-1 of its weight."""
     holdout_every: int = 0
     """Hold every n-th static sample of each training room out of training (the seen-rooms test; 0: none)."""
     ien_features: list[str] = field(default_factory=lambda: ["normals"])
@@ -70,12 +74,13 @@ class TrainConfig:
 
 PRESETS = {
     "tiny": TrainConfig(),
-    "demo": TrainConfig(name="demo", steps=200, batch_size=16, ckpt_every=50, log_every=10, snr_weight=1.0,
-                        holdout_every=6, net=NLOSNetConfig(background_subtract=True)),
-    "small": TrainConfig(name="small", steps=600, batch_size=16, ckpt_every=100, log_every=20, snr_weight=1.0,
-                         holdout_every=6, net=NLOSNetConfig(background_subtract=True)),
-    "paper": TrainConfig(name="paper", steps=20000, batch_size=64, lr=1e-2, ien_lr_scale=1.0, ckpt_every=1000,
-                         log_every=100, snr_weight=1.0, holdout_every=6, net=NLOSNetConfig(background_subtract=True)),
+    "demo": TrainConfig(name="demo", steps=200, batch_size=16, scenes_per_step=4, ckpt_every=50, log_every=10,
+                        snr_weight=1.0, holdout_every=6, net=NLOSNetConfig(background_subtract=True)),
+    "small": TrainConfig(name="small", steps=600, batch_size=16, scenes_per_step=4, ckpt_every=100, log_every=20,
+                         snr_weight=1.0, holdout_every=6, net=NLOSNetConfig(background_subtract=True)),
+    "paper": TrainConfig(name="paper", steps=20000, batch_size=64, scenes_per_step=4, lr=1e-2, ien_lr_scale=1.0,
+                         ckpt_every=1000, log_every=100, snr_weight=1.0, holdout_every=6,
+                         net=NLOSNetConfig(background_subtract=True)),
 }
 
 

@@ -109,57 +109,108 @@ class Trainer:
         self.step = 0
 
     # ------------------------------------------------------------ one step
+    def ien_logits(self, scenes: list[SceneTensors]) -> list[torch.Tensor]:
+        """Per scene (T,) IEN logits, from one forward pass over the disjoint union of their graphs.
+
+        One pass keeps DistributedDataParallel to one forward per backward; FeaStConv and the face
+        head are local, so the union gives each scene exactly its own logits.
+        """
+        xs, edges, faces, offset = [], [], [], 0
+        for s in scenes:
+            xs.append(s.x)
+            edges.append(s.edge_index + offset)
+            faces.append(s.faces + offset)
+            offset += len(s.x)
+        logits = self.ien_ddp(torch.cat(xs), torch.cat(edges, dim=1), torch.cat(faces))
+        return list(logits.split([len(s.faces) for s in scenes]))
+
+    def illuminations(self, scenes: list[SceneTensors], train: bool) -> list[tuple]:
+        """Per scene (spot vector y (T,) or None, mode, IEN logits or None)."""
+        if self.fixed is not None:
+            fixed = [self.fixed[self.scene_index(s)] for s in scenes]
+            return [(ill.spot_vector(len(s.faces), self.device), ill.mode, None) for s, ill in zip(scenes, fixed)]
+        out = []
+        for s, logits in zip(scenes, self.ien_logits(scenes)):
+            if train:
+                y = straight_through_spot(logits, s.landed, self.cfg.tau, self.gen)
+            else:
+                y = F.one_hot(logits.masked_fill(~s.landed, float("-inf")).argmax(), len(logits)).float()
+            out.append((y, "spot", logits))
+        return out
+
     def illumination(self, s: SceneTensors, train: bool) -> tuple[torch.Tensor | None, str, torch.Tensor | None]:
         """(spot vector y (T,) or None, mode, IEN logits or None) for scene ``s``."""
-        if self.fixed is not None:
-            ill = self.fixed[self.scene_index(s)]
-            return ill.spot_vector(len(s.faces), self.device), ill.mode, None
-        logits = self.ien_ddp(s.x, s.edge_index, s.faces)
-        if train:
-            return straight_through_spot(logits, s.landed, self.cfg.tau, self.gen), "spot", logits
-        y = F.one_hot(logits.masked_fill(~s.landed, float("-inf")).argmax(), len(logits)).float()
-        return y, "spot", logits
+        return self.illuminations([s], train)[0]
 
     def spot_loss(self, s: SceneTensors, logits: torch.Tensor | None) -> torch.Tensor:
-        """Auxiliary loss: minus the expected normalized NLOS SNR of the IEN's spot distribution."""
+        """Auxiliary loss: cross-entropy of the IEN's spot distribution to q = softmax(SNR / max / snr_tau).
+
+        A cross-entropy, not the expected SNR -sum_t p_t SNR_t: its logit gradient p - q never
+        vanishes, while the expected SNR's p_t (SNR_t - E_p SNR) dies once p settles on any one
+        candidate, which trapped the IEN on dark spots (small preset, 16 rooms).
+        """
         target = self.spot_snr[self.scene_index(s)] if self.spot_snr is not None else None
         if logits is None or target is None:
             return torch.zeros((), device=self.device)
-        p = torch.softmax(logits.masked_fill(~s.landed, float("-inf")), dim=0)
-        return -(p * target).sum()
+        q = torch.softmax((target / self.cfg.snr_tau).masked_fill(~s.landed, float("-inf")), dim=0)
+        log_p = torch.log_softmax(logits.masked_fill(~s.landed, float("-inf")), dim=0)
+        return -(q * log_p.masked_fill(~s.landed, 0.0)).sum()
 
     def scene_index(self, s: SceneTensors) -> int:
         return next(i for i, t in enumerate(self.scenes) if t is s)
 
     def loss_on(self, s: SceneTensors, idx: torch.Tensor, train: bool = True) -> dict:
-        y, mode, ien_logits = self.illumination(s, train)
-        images, person_free = form_images(s, idx, y, mode)
-        images, background = photographs(images, person_free, self.sensor, self.gen, self.cfg.sensor_noise,
-                                         self.cfg.net.background_subtract)
-        pos, post = self.net_ddp(images, background)
-        pos_loss = F.mse_loss(pos, s.target[idx])
-        cls_loss = F.cross_entropy(post, s.posture[idx])
-        err = (pos - s.target[idx]).norm(dim=1)
-        spot_loss = self.spot_loss(s, ien_logits)
+        """Loss and metrics of samples ``idx`` of scene ``s``."""
+        return self.loss_on_many([(s, idx)], train)
+
+    def loss_on_many(self, parts: list[tuple[SceneTensors, torch.Tensor]], train: bool = True) -> dict:
+        """Loss and metrics of one batch made of samples ``idx`` of each scene ``s`` in ``parts``.
+
+        The network sees the whole batch in one pass, so its batch-norm statistics mix rooms as
+        at test time; each scene is lit by its own spot.
+        """
+        scenes = [s for s, _ in parts]
+        ills = self.illuminations(scenes, train)
+        images, backgrounds = [], []
+        for (s, idx), (y, mode, _) in zip(parts, ills):
+            img, person_free = form_images(s, idx, y, mode)
+            img, bg = photographs(img, person_free, self.sensor, self.gen, self.cfg.sensor_noise,
+                                  self.cfg.net.background_subtract)
+            images.append(img)
+            backgrounds.append(bg)
+        background = torch.cat(backgrounds) if backgrounds[0] is not None else None
+        pos, post = self.net_ddp(torch.cat(images), background)
+        target = torch.cat([s.target[idx] for s, idx in parts])
+        posture = torch.cat([s.posture[idx] for s, idx in parts])
+        pos_loss = F.mse_loss(pos, target)
+        cls_loss = F.cross_entropy(post, posture)
+        err = (pos - target).norm(dim=1)
+        spot_loss = torch.stack([self.spot_loss(s, logits) for s, (_, _, logits) in zip(scenes, ills)]).mean()
+        y = ills[0][0]
         return {"loss": self.cfg.position_weight * pos_loss + self.cfg.posture_weight * cls_loss
                 + self.cfg.snr_weight * spot_loss, "spot_loss": spot_loss,
                 "pos_loss": pos_loss, "cls_loss": cls_loss, "err_cm": 100 * err.mean(),
-                "acc": (post.argmax(1) == s.posture[idx]).float().mean(),
+                "acc": (post.argmax(1) == posture).float().mean(),
                 "spot": y.argmax() if y is not None else torch.tensor(-1),
                 "pred": pos, "logits": post}
 
     def train_step(self) -> dict:
         self.ien.train()
         self.net.train()
-        si = int(torch.randint(len(self.scenes), (1,), generator=self.gen, device=self.device))
-        s = self.scenes[si]
-        idx = torch.randint(s.num_samples, (self.cfg.batch_size,), generator=self.gen, device=self.device)
-        out = self.loss_on(s, idx)
+        k = self.cfg.scenes_per_step
+        parts, first = [], -1
+        for j in range(k):  # for k = 1 the draws are those of one scene per step
+            si = int(torch.randint(len(self.scenes), (1,), generator=self.gen, device=self.device))
+            s = self.scenes[si]
+            n = self.cfg.batch_size // k + (j < self.cfg.batch_size % k)
+            parts.append((s, torch.randint(s.num_samples, (n,), generator=self.gen, device=self.device)))
+            first = si if j == 0 else first
+        out = self.loss_on_many(parts)
         self.opt.zero_grad()
         out["loss"].backward()
         self.opt.step()
         self.step += 1
-        return {k: float(v.detach()) for k, v in out.items() if k not in ("pred", "logits")} | {"scene": si}
+        return {k: float(v.detach()) for k, v in out.items() if k not in ("pred", "logits")} | {"scene": first}
 
     # ------------------------------------------------------------ checkpoints
     def state(self) -> dict:
@@ -214,6 +265,8 @@ def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool 
     ckpt = out / "checkpoint.pt"
     if (out / "config.json").exists() and not resume and ckpt.exists():
         raise NlosError(f"{out} holds a run; pass --resume to continue it or choose another --out")
+    if not 1 <= cfg.scenes_per_step <= cfg.batch_size:
+        raise NlosError(f"config: scenes_per_step must be in 1..batch_size ({cfg.batch_size}), got {cfg.scenes_per_step}")
     scenes = training_samples(load_split(data_dir, "train", cfg.ien_features), cfg.holdout_every)
     tr = Trainer(cfg, scenes, out)
     if resume and ckpt.exists():

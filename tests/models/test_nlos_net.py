@@ -36,3 +36,16 @@ def test_background_subtraction_option_and_gradients():
     pos, logits = net(img, bg)  # signed differences: the RMS normalization has no sign to lose
     (pos.sum() + logits.sum()).backward()
     assert all(p.grad is not None and torch.isfinite(p.grad).all() for p in net.parameters() if p.requires_grad)
+
+
+def test_coordinate_channels_locate_pixels():
+    """CoordConv channels hold each pixel center's (x, y) in [-1, 1], appended after the image."""
+    from nlos_spotlight.models.nlos_net import with_coordinates
+
+    img = torch.rand(2, 3, 4, 5)
+    x = with_coordinates(img)
+    assert x.shape == (2, 5, 4, 5) and torch.equal(x[:, :3], img)
+    assert torch.allclose(x[0, 3, 2], torch.tensor([-1.0, -0.5, 0.0, 0.5, 1.0]))  # x along a row
+    assert torch.allclose(x[1, 4, :, 3], torch.tensor([-1.0, -1 / 3, 1 / 3, 1.0]))  # y down a column
+    net = NLOSNet(NLOSNetConfig(coord_channels=True)).eval()
+    assert net.backbone.stem[0].in_channels == 5 and net(torch.rand(2, 16, 16, 3))[0].shape == (2, 2)
