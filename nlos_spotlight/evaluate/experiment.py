@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ..errors import NlosError
 from ..train.checkpoint import load_trained
 from ..train.scenes import load_scene_tensors, split_ids
 from . import decimation as dec
@@ -72,6 +73,9 @@ def run_all(run_dir: Path, data: Path, seeds: int, names: list[str] | None, prog
             ev.preds[m.name][seed] = evaluate_models(models, scenes, ids, seed)
             msg = f"{m.name} seed {seed}: unseen rooms {fmt_short(per_class(ev.preds[m.name][seed]))}"
             if seen:
+                if models.config.holdout_every != base.holdout_every:
+                    raise NlosError(f"{path}: trained with holdout_every {models.config.holdout_every}, the run "
+                                    f"with {base.holdout_every}: its seen-room samples differ (retrain it)")
                 ev.seen.setdefault(m.name, {})[seed] = evaluate_models(models, seen, ev.seen_ids, seed, seen=True)
                 msg += f"; seen rooms {fmt_short(per_class(ev.seen[m.name][seed]))}"
             console.print(msg)
@@ -86,11 +90,10 @@ def seen_rooms(data: Path, base) -> tuple[list[str], list]:
     """Training rooms reduced to the samples the run held out of training (``holdout_every``)."""
     if base.holdout_every <= 0:
         return [], []
-    from ..train.scenes import holdout_mask
+    from ..train.scenes import load_split, room_samples
 
-    ids = split_ids(data, "train")
-    rooms = [load_scene_tensors(data / "scenes" / sid, base.ien_features) for sid in ids]
-    return ids, [s.subset(torch.nonzero(holdout_mask(s, base.holdout_every)).flatten()) for s in rooms]
+    keep = lambda s: room_samples(s, base.holdout_every, held=True)
+    return split_ids(data, "train"), load_split(data, "train", base.ien_features, keep=keep)
 
 
 def fmt_short(r: dict) -> str:

@@ -94,6 +94,8 @@ def predict_scene(models: TrainedModels, s: SceneTensors, ill: Illumination, gen
             p, logits = models.net(images, background)
             pos.append(p.numpy())
             prob.append(F.softmax(logits, dim=1).numpy())
+    if not pos:  # a room with no samples (e.g. none held out of it)
+        return np.zeros((0, 2)), np.zeros((0, 6))
     return np.concatenate(pos), np.concatenate(prob)
 
 

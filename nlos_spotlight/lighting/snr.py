@@ -75,8 +75,12 @@ def _exposure_or_max(reference: torch.Tensor, cfg: SensorConfig) -> float:
     return auto_exposure(reference, cfg) if float(reference.max()) > 0 else cfg.max_exposure_s
 
 
-def scene_snr(scene_dir: str | Path) -> SceneSNR:
-    """SNR of every candidate spot, ambient only and the flash, from ``static.npz`` and ``samples/``."""
+def scene_snr(scene_dir: str | Path, skip_every: int = 0) -> SceneSNR:
+    """SNR of every candidate spot, ambient only and the flash, from ``static.npz`` and ``samples/``.
+
+    ``skip_every`` n > 0 leaves out the samples k with k % n == n - 1, the people a training run
+    holds out of its rooms (``train.scenes.holdout_mask``), so training never reads them.
+    """
     from ..scene import load_scene
 
     scene_dir = Path(scene_dir)
@@ -91,7 +95,9 @@ def scene_snr(scene_dir: str | Path) -> SceneSNR:
     flash_direct = torch.as_tensor(st["flash_direct"]).double() if "flash_direct" in st.files else None
     flash_exposure = _exposure_or_max(flash_direct + ambient, cfg) if flash_direct is not None else None
     per_t, amb, flash = [], [], []
-    for path in sorted((scene_dir / "samples").glob("*.npz")):
+    for k, path in enumerate(sorted((scene_dir / "samples").glob("*.npz"))):
+        if skip_every > 0 and k % skip_every == skip_every - 1:
+            continue
         z = np.load(path)
         if int(z["trajectory"]) >= 0:
             continue
@@ -111,6 +117,6 @@ def scene_snr(scene_dir: str | Path) -> SceneSNR:
                     len(per_t))
 
 
-def candidate_snr(scene_dir: str | Path) -> np.ndarray:
+def candidate_snr(scene_dir: str | Path, skip_every: int = 0) -> np.ndarray:
     """(T,) mean NLOS SNR of each candidate spot of a stored scene (0 for spots that land nowhere)."""
-    return scene_snr(scene_dir).candidates
+    return scene_snr(scene_dir, skip_every).candidates

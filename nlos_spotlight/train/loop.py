@@ -32,7 +32,7 @@ from ..models.registry import build_network
 from ..render.sensor import SensorConfig
 from .config import TrainConfig
 from .imaging import form_images, photographs
-from .scenes import SceneTensors, holdout_mask, load_split
+from .scenes import SceneTensors, load_split, room_samples
 
 
 CHECKPOINT_FORMAT = "nlos-checkpoint/1"
@@ -61,7 +61,7 @@ def spot_snr_targets(cfg: TrainConfig, scenes: list[SceneTensors]) -> list[torch
         if not s.scene_dir:  # scenes built in memory carry no stored transport to measure
             out.append(None)
             continue
-        snr = torch.as_tensor(candidate_snr(s.scene_dir), dtype=torch.float32, device=s.x.device)
+        snr = torch.as_tensor(candidate_snr(s.scene_dir, cfg.holdout_every), dtype=torch.float32, device=s.x.device)
         out.append(snr / snr.max().clamp(min=1e-30))
     return out
 
@@ -244,16 +244,28 @@ class Trainer:
         self.step = st["step"]
 
 
+def check_config(cfg: TrainConfig) -> None:
+    """One-line errors for settings no run can use."""
+    if not 1 <= cfg.scenes_per_step <= cfg.batch_size:
+        raise NlosError(f"config: scenes_per_step must be in 1..batch_size ({cfg.batch_size}), "
+                        f"got {cfg.scenes_per_step}")
+    if cfg.holdout_every == 1 or cfg.holdout_every < 0:
+        raise NlosError(f"config: holdout_every must be 0 (none) or at least 2, got {cfg.holdout_every}")
+
+
 def training_samples(scenes: list[SceneTensors], holdout_every: int) -> list[SceneTensors]:
     """The training rooms without their held-out samples (``scenes.holdout_mask``)."""
     if holdout_every <= 0:
         return scenes
-    return [s.subset(torch.nonzero(~holdout_mask(s, holdout_every)).flatten()) for s in scenes]
+    return [room_samples(s, holdout_every, held=False) for s in scenes]
 
 
 def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool = False,
           progress: bool = True) -> Trainer:
-    """Train (or resume) a run in ``out``: config.json, metrics.csv, checkpoint.pt, final.pt."""
+    """Train (or resume) a run in ``out``: config.json, metrics.csv, checkpoint.pt, final.pt.
+
+    metrics.csv's ``spot`` and ``scene`` columns name the first room of each step's batch.
+    """
     from ..console import QUIET, console
 
     out = Path(out)
@@ -265,9 +277,9 @@ def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool 
     ckpt = out / "checkpoint.pt"
     if (out / "config.json").exists() and not resume and ckpt.exists():
         raise NlosError(f"{out} holds a run; pass --resume to continue it or choose another --out")
-    if not 1 <= cfg.scenes_per_step <= cfg.batch_size:
-        raise NlosError(f"config: scenes_per_step must be in 1..batch_size ({cfg.batch_size}), got {cfg.scenes_per_step}")
-    scenes = training_samples(load_split(data_dir, "train", cfg.ien_features), cfg.holdout_every)
+    check_config(cfg)
+    keep = None if cfg.holdout_every <= 0 else (lambda s: room_samples(s, cfg.holdout_every, held=False))
+    scenes = load_split(data_dir, "train", cfg.ien_features, keep=keep)
     tr = Trainer(cfg, scenes, out)
     if resume and ckpt.exists():
         tr.load(ckpt)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import torch
@@ -87,6 +88,13 @@ def holdout_mask(s: SceneTensors, every: int) -> torch.Tensor:
     return static & (k % every == every - 1)
 
 
+def room_samples(s: SceneTensors, every: int, held: bool) -> SceneTensors:
+    """Room ``s`` with only the samples a run with ``holdout_every`` = ``every`` trains on, or with
+    ``held`` only those it holds out."""
+    mask = holdout_mask(s, every)
+    return s.subset(torch.nonzero(mask if held else ~mask).flatten())
+
+
 def ground_frame(pos_xy: np.ndarray, origin_xy: np.ndarray, fwd_xy: np.ndarray) -> np.ndarray:
     """World floor points (N, 2) -> (along the view, to the left of it) relative to ``origin_xy``.
 
@@ -162,5 +170,8 @@ def split_ids(data_dir: str | Path, split: str) -> list[str]:
     return ids
 
 
-def load_split(data_dir: str | Path, split: str, features: list[str]) -> list[SceneTensors]:
-    return [load_scene_tensors(Path(data_dir) / "scenes" / sid, features) for sid in split_ids(data_dir, split)]
+def load_split(data_dir: str | Path, split: str, features: list[str],
+               keep: Callable[[SceneTensors], SceneTensors] | None = None) -> list[SceneTensors]:
+    """Every scene of a split; ``keep`` (e.g. a sample subset) is applied as each loads, to bound memory."""
+    keep = keep or (lambda s: s)
+    return [keep(load_scene_tensors(Path(data_dir) / "scenes" / sid, features)) for sid in split_ids(data_dir, split)]

@@ -113,10 +113,16 @@ def test_seen_rooms_are_the_held_out_samples_under_the_training_spot(evaluated):
     ev = json.loads((report / "evaluation.json").read_text())
     assert ev["seen_rooms"] == ids and set(ev["results_seen_rooms"]) == {"ours", "random_resnet", "oracle_resnet"}
     models = load_trained(run / "methods" / "random_resnet" / "seed1")
-    train_spots = fixed_illuminations(models.config, full)
+    train_spots = fixed_illuminations(models.config, trained)  # what train() passed to its Trainer
     for k, s in enumerate(seen):
         assert illumination_for(models, s, k, 1, seen=True).face == train_spots[k].face
     assert "Seen rooms" in (report / "report.md").read_text()
+    # the IEN's SNR target reads only the samples it trains on: 4 of each room's 6
+    from nlos_spotlight.lighting.snr import scene_snr
+
+    for sid in ids:
+        assert scene_snr(data / "scenes" / sid, base.holdout_every).samples == 4
+        assert scene_snr(data / "scenes" / sid).samples == 6
 
 
 def test_rerun_reuses_finished_runs(evaluated):

@@ -84,10 +84,12 @@ from toy import toy_scene
 from nlos_spotlight.train.config import TrainConfig
 from nlos_spotlight.train.loop import Trainer
 dist.init_process_group("gloo")
-tr = Trainer(TrainConfig(batch_size=4, sensor_noise=False, device="cpu"), [toy_scene(n=16)], Path("."))
+# two rooms per step: one IEN pass over their union graph, one network pass over the mixed batch
+cfg = TrainConfig(batch_size=4, scenes_per_step=2, sensor_noise=False, device="cpu")
+tr = Trainer(cfg, [toy_scene(n=16, best=2), toy_scene(n=16, seed=1)], Path("."))
 for _ in range(3):
     tr.train_step()
-w = torch.cat([p.detach().flatten() for p in tr.net.parameters()])
+w = torch.cat([p.detach().flatten() for p in [*tr.net.parameters(), *tr.ien.parameters()]])
 gathered = [torch.zeros_like(w) for _ in range(dist.get_world_size())]
 dist.all_gather(gathered, w)
 assert torch.equal(gathered[0], gathered[1]), "replicas diverged"
@@ -153,10 +155,21 @@ def test_two_scenes_per_step_find_each_scenes_best_spot():
     """Each room of a mixed batch is lit by its own spot, and the IEN learns both rooms' best face."""
     cfg = TrainConfig(steps=60, batch_size=16, scenes_per_step=2, sensor_noise=False, tau=1.0)
     a, b = toy_scene(seed=0, best=1), toy_scene(seed=1, best=6)
-    b.x = b.x.flip(0)  # a different vertex order: a different graph for the same quad
+    b.x = b.x.flip(0)  # other vertex features on the same edges: a different mesh to the IEN
     tr = Trainer(cfg, [a, b], Path("unused"))
     for _ in range(cfg.steps):
         tr.train_step()
     with torch.no_grad():
         picks = [int(t.argmax()) for t in tr.ien_logits(tr.scenes)]
     assert picks == [1, 6]
+
+
+def test_config_errors_are_one_line(tmp_path):
+    from nlos_spotlight.errors import NlosError
+    from nlos_spotlight.train.loop import check_config
+
+    for bad, words in ((dict(scenes_per_step=0), "scenes_per_step"), (dict(batch_size=2, scenes_per_step=3),
+                       "scenes_per_step"), (dict(holdout_every=1), "holdout_every")):
+        with pytest.raises(NlosError, match=words):
+            check_config(TrainConfig(**bad))
+    check_config(TrainConfig(holdout_every=6, scenes_per_step=4, batch_size=16))
