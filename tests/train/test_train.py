@@ -151,19 +151,6 @@ def test_mixed_batch_loss_is_the_mean_of_per_scene_losses():
         assert float(both[k]) == pytest.approx((float(one[k]) + float(two[k])) / 2, rel=1e-5, abs=1e-7)
 
 
-def test_two_scenes_per_step_find_each_scenes_best_spot():
-    """Each room of a mixed batch is lit by its own spot, and the IEN learns both rooms' best face."""
-    cfg = TrainConfig(steps=60, batch_size=16, scenes_per_step=2, sensor_noise=False, tau=1.0)
-    a, b = toy_scene(seed=0, best=1), toy_scene(seed=1, best=6)
-    b.x = b.x.flip(0)  # other vertex features on the same edges: a different mesh to the IEN
-    tr = Trainer(cfg, [a, b], Path("unused"))
-    for _ in range(cfg.steps):
-        tr.train_step()
-    with torch.no_grad():
-        picks = [int(t.argmax()) for t in tr.ien_logits(tr.scenes)]
-    assert picks == [1, 6]
-
-
 def test_config_errors_are_one_line(tmp_path):
     from nlos_spotlight.errors import NlosError
     from nlos_spotlight.train.loop import check_config
