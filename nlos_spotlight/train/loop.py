@@ -138,10 +138,6 @@ class Trainer:
             out.append((y, "spot", logits))
         return out
 
-    def illumination(self, s: SceneTensors, train: bool) -> tuple[torch.Tensor | None, str, torch.Tensor | None]:
-        """(spot vector y (T,) or None, mode, IEN logits or None) for scene ``s``."""
-        return self.illuminations([s], train)[0]
-
     def spot_loss(self, s: SceneTensors, logits: torch.Tensor | None) -> torch.Tensor:
         """Auxiliary loss: cross-entropy of the IEN's spot distribution to q = softmax(SNR / max / snr_tau).
 
@@ -198,19 +194,18 @@ class Trainer:
         self.ien.train()
         self.net.train()
         k = self.cfg.scenes_per_step
-        parts, first = [], -1
+        picks, parts = [], []
         for j in range(k):  # for k = 1 the draws are those of one scene per step
-            si = int(torch.randint(len(self.scenes), (1,), generator=self.gen, device=self.device))
-            s = self.scenes[si]
+            picks.append(int(torch.randint(len(self.scenes), (1,), generator=self.gen, device=self.device)))
+            s = self.scenes[picks[-1]]
             n = self.cfg.batch_size // k + (j < self.cfg.batch_size % k)
             parts.append((s, torch.randint(s.num_samples, (n,), generator=self.gen, device=self.device)))
-            first = si if j == 0 else first
         out = self.loss_on_many(parts)
         self.opt.zero_grad()
         out["loss"].backward()
         self.opt.step()
         self.step += 1
-        return {k: float(v.detach()) for k, v in out.items() if k not in ("pred", "logits")} | {"scene": first}
+        return {k: float(v.detach()) for k, v in out.items() if k not in ("pred", "logits")} | {"scene": picks[0]}
 
     # ------------------------------------------------------------ checkpoints
     def state(self) -> dict:
@@ -253,13 +248,6 @@ def check_config(cfg: TrainConfig) -> None:
         raise NlosError(f"config: holdout_every must be 0 (none) or at least 2, got {cfg.holdout_every}")
 
 
-def training_samples(scenes: list[SceneTensors], holdout_every: int) -> list[SceneTensors]:
-    """The training rooms without their held-out samples (``scenes.holdout_mask``)."""
-    if holdout_every <= 0:
-        return scenes
-    return [room_samples(s, holdout_every, held=False) for s in scenes]
-
-
 def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool = False,
           progress: bool = True) -> Trainer:
     """Train (or resume) a run in ``out``: config.json, metrics.csv, checkpoint.pt, final.pt.
@@ -278,7 +266,7 @@ def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool 
     if (out / "config.json").exists() and not resume and ckpt.exists():
         raise NlosError(f"{out} holds a run; pass --resume to continue it or choose another --out")
     check_config(cfg)
-    keep = None if cfg.holdout_every <= 0 else (lambda s: room_samples(s, cfg.holdout_every, held=False))
+    keep = lambda s: room_samples(s, cfg.holdout_every, held=False)
     scenes = load_split(data_dir, "train", cfg.ien_features, keep=keep)
     tr = Trainer(cfg, scenes, out)
     if resume and ckpt.exists():

@@ -90,7 +90,9 @@ def holdout_mask(s: SceneTensors, every: int) -> torch.Tensor:
 
 def room_samples(s: SceneTensors, every: int, held: bool) -> SceneTensors:
     """Room ``s`` with only the samples a run with ``holdout_every`` = ``every`` trains on, or with
-    ``held`` only those it holds out."""
+    ``held`` only those it holds out (``every`` 0: all samples are trained on, ``s`` itself)."""
+    if every <= 0 and not held:
+        return s
     mask = holdout_mask(s, every)
     return s.subset(torch.nonzero(mask if held else ~mask).flatten())
 

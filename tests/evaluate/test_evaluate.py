@@ -96,14 +96,14 @@ def test_seen_rooms_are_the_held_out_samples_under_the_training_spot(evaluated):
     from nlos_spotlight.evaluate.predictions import illumination_for
     from nlos_spotlight.evaluate.runs import run_config
     from nlos_spotlight.train.checkpoint import load_trained
-    from nlos_spotlight.train.loop import fixed_illuminations, training_samples
-    from nlos_spotlight.train.scenes import load_split
+    from nlos_spotlight.train.loop import fixed_illuminations
+    from nlos_spotlight.train.scenes import load_split, room_samples
 
     data, run, report, _ = evaluated
     base = run_config(run)
     ids, seen = seen_rooms(data, base)
     full = load_split(data, "train", base.ien_features)
-    trained = training_samples(full, base.holdout_every)
+    trained = [room_samples(s, base.holdout_every, held=False) for s in full]
     for s, held, fit in zip(full, seen, trained):
         assert held.num_samples == 2 and fit.num_samples == 4  # samples 2 and 5 of 6 held out
         # held-out and training samples partition the room: no target appears in both
