@@ -19,8 +19,7 @@ import numpy as np
 import torch
 
 from nlos_spotlight.lighting.snr import candidate_snr
-from nlos_spotlight.render.sensor import SensorConfig
-from nlos_spotlight.train.imaging import form_images, photographs
+from nlos_spotlight.train.imaging import capture_sensor, form_images, photographs
 from nlos_spotlight.train.scenes import holdout_mask, load_split
 
 
@@ -32,8 +31,8 @@ def features(data: str, split: str, noise: bool, holdout: int) -> tuple[np.ndarr
         idx = torch.nonzero(s.trajectory[:, 0] < 0).flatten()
         img, free = form_images(s, idx, y)
         h, w = free.shape[:2]
-        ph, bg = photographs(img, free, SensorConfig(width=w, height=h), torch.Generator().manual_seed(0), noise, True)
-        d = (ph - bg).reshape(len(idx), -1).double()
+        ph = photographs(img, free, capture_sensor((h, w)), torch.Generator().manual_seed(0), noise, True)
+        d = (ph.images - ph.background).reshape(len(idx), -1).double()
         xs.append((d / d.pow(2).mean(1, keepdim=True).sqrt()).numpy())
         ys.append(s.target[idx].double().numpy())
         held.append(holdout_mask(s, holdout)[idx].numpy())

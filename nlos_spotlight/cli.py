@@ -60,8 +60,7 @@ def cmd_render(args: argparse.Namespace) -> None:
     result = r.render(y, person, components=comps)
     image = result.image
     if args.noise == "sensor":
-        cfg = SensorConfig.from_dict({**(scene.sensor or {}), "width": scene.camera.width,
-                                      "height": scene.camera.height})
+        cfg = SensorConfig.for_scene(scene)
         # the camera meters the person-free scene, whatever components are written
         metered = ("direct", "ambient") + (("interreflection",) if "interreflection" in comps else ())
         ref = r.render(y, None, components=metered).image

@@ -82,7 +82,7 @@ def render_example(out: Path, seed: int) -> None:
     t0 = time.perf_counter()
     res = r.render(r.spot_vector(0), person, components=COMPONENTS)
     t_render = time.perf_counter() - t0
-    cfg = SensorConfig(width=scene.camera.width, height=scene.camera.height)
+    cfg = SensorConfig.for_scene(scene)
     exposure = auto_exposure(r.render(r.spot_vector(0), components=("direct", "interreflection", "ambient")).image,
                              cfg)
     noisy = sensor_capture(res.image, exposure, cfg, generator=torch.Generator().manual_seed(seed))

@@ -1,7 +1,7 @@
 """Run one trained method on held-out scenes: its spot per scene, its predictions per sample.
 
 Every test image is formed from the stored transport under the method's illumination and goes
-through the sensor model (auto-exposure, shot, read and quantization noise) with a fixed seed, so
+through the sensor model (average metering, shot, read and quantization noise, clipping) with a fixed seed, so
 all methods see equally noisy photographs and a rerun gives the same numbers.
 """
 
@@ -15,9 +15,8 @@ import torch
 import torch.nn.functional as F
 
 from ..lighting import POLICIES, Illumination
-from ..render.sensor import SensorConfig
 from ..train.checkpoint import TrainedModels
-from ..train.imaging import form_images, photographs
+from ..train.imaging import capture_sensor, form_images, photographs
 from ..train.scenes import SceneTensors
 
 
@@ -82,16 +81,16 @@ def predict_scene(models: TrainedModels, s: SceneTensors, ill: Illumination, gen
                   batch: int = 64) -> tuple[np.ndarray, np.ndarray]:
     """(N, 2) positions and (N, 6) posture probabilities for every sample of ``s`` under ``ill``."""
     h, w = s.ambient.shape[:2]
-    sensor = SensorConfig(width=w, height=h)
+    sensor = capture_sensor((h, w), models.config.sensor)
     y = ill.spot_vector(len(s.faces))
     pos, prob = [], []
     with torch.no_grad():
         for start in range(0, s.num_samples, batch):
             idx = torch.arange(start, min(start + batch, s.num_samples))
             images, person_free = form_images(s, idx, y, ill.mode)
-            images, background = photographs(images, person_free, sensor, generator,
-                                             background=models.config.net.background_subtract)
-            p, logits = models.net(images, background)
+            ph = photographs(images, person_free, sensor, generator,
+                             background=models.config.net.background_subtract)
+            p, logits = models.net(ph.images, ph.background, ph.clipped)
             pos.append(p.numpy())
             prob.append(F.softmax(logits, dim=1).numpy())
     if not pos:  # a room with no samples (e.g. none held out of it)

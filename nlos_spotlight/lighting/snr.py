@@ -1,16 +1,18 @@
 """NLOS signal-to-noise ratio of each candidate spot, from a scene's stored light transport.
 
 A spot is good when the person's light stands out of the sensor noise of the whole photograph.
-Under the sensor model (``render/sensor.py``) with auto-exposure, candidate t of a scene gets
+Under the sensor model (``render/sensor.py``) with its metering, candidate t of a scene gets
 exposure ``e_t = auto_exposure(direct_t + ambient)`` (the person-free image, as a camera meters it),
 and a pixel's mean and variance in digital numbers are
 
     s_p   = k e_t nlos_tp                                   (the person's signal, DN)
     mu_p  = k e_t (direct_tp + ambient_p + nlos_tp + nlos_ambient_p)
-    var_p = g mu_p + (g sigma_read)^2 + 1/12                (shot + read + quantization noise)
+    var_p = (g mu_p + g^2 n sigma_read^2 + n/12) / N        (shot + read + per-native quantization,
+                                                             a burst of N frames: noise_variance_dn)
 
-with ``k = electrons_per_radiance * gain`` and g the gain (DN per electron). The SNR is the
-matched-filter detectability of the person, summed over pixels and channels,
+with ``k = electrons_per_radiance * gain``, g the gain (DN per electron) and n native pixels per
+output pixel. The SNR is the matched-filter detectability of the person, summed over the pixels and
+channels that do not clip (mu_p below full scale),
 
     SNR_t = sqrt( sum_p s_p^2 / var_p ),
 
@@ -31,29 +33,31 @@ import numpy as np
 import torch
 
 from ..errors import NlosError
-from ..render.sensor import SensorConfig, auto_exposure, expected_dn
+from ..render.sensor import SensorConfig, auto_exposure, dn_per_radiance, expected_dn, noise_variance_dn
 
 
-def sensor_config(scene) -> SensorConfig:
-    """The scene's sensor (its ``sensor`` overrides) at the camera's resolution."""
-    return SensorConfig.from_dict({**(scene.sensor or {}), "width": scene.camera.width,
-                                   "height": scene.camera.height})
+def sensor_config(scene, overrides: dict | None = None) -> SensorConfig:
+    """The scene's sensor (:meth:`SensorConfig.for_scene`: its ``sensor`` overrides, then ``overrides``)."""
+    return SensorConfig.for_scene(scene, overrides)
+
+
+def _information(s: torch.Tensor, mu: torch.Tensor, cfg: SensorConfig, dims) -> torch.Tensor:
+    """sum s^2 / var over unclipped values (a saturated pixel carries no signal)."""
+    var = noise_variance_dn(mu, cfg)
+    return (s * s / var * (mu < cfg.full_scale_dn)).sum(dim=dims)
 
 
 def snr(signal: torch.Tensor, total: torch.Tensor, exposure: float, cfg: SensorConfig) -> float:
     """SNR of one signal image (H, W, 3) inside the photograph ``total`` at ``exposure`` seconds."""
     s = expected_dn(signal, exposure, cfg)
     mu = expected_dn(total.clamp(min=0), exposure, cfg)
-    var = cfg.gain * mu + (cfg.gain * cfg.read_noise_binned_e) ** 2 + 1 / 12  # DN^2
-    return float(torch.sqrt((s * s / var).sum()))
+    return float(torch.sqrt(_information(s, mu, cfg, None)))
 
 
 def snr_batch(signal: torch.Tensor, total: torch.Tensor, exposures: torch.Tensor, cfg: SensorConfig) -> torch.Tensor:
     """:func:`snr` for a stack: signal, total (B, H, W, 3), exposures (B,) seconds -> (B,)."""
-    k = (exposures * cfg.electrons_per_radiance * cfg.gain).reshape(-1, 1, 1, 1)  # DN per radiance unit
-    s = signal * k
-    var = cfg.gain * (total.clamp(min=0) * k) + (cfg.gain * cfg.read_noise_binned_e) ** 2 + 1 / 12
-    return torch.sqrt((s * s / var).sum(dim=(1, 2, 3)))
+    k = dn_per_radiance(exposures, cfg).reshape(-1, 1, 1, 1)
+    return torch.sqrt(_information(signal * k, total.clamp(min=0) * k, cfg, (1, 2, 3)))
 
 
 @dataclass
@@ -70,15 +74,10 @@ class SceneSNR:
     """Static samples averaged."""
 
 
-def _exposure_or_max(reference: torch.Tensor, cfg: SensorConfig) -> float:
-    """Auto-exposure, or the longest exposure for an all-black reference (nothing to meter on)."""
-    return auto_exposure(reference, cfg) if float(reference.max()) > 0 else cfg.max_exposure_s
-
-
-def scene_snr(scene_dir: str | Path, skip_every: int = 0) -> SceneSNR:
+def scene_snr(scene_dir: str | Path, skip_every: int = 0, sensor: dict | None = None) -> SceneSNR:
     """SNR of every candidate spot, ambient only and the flash, from ``static.npz`` and ``samples/``.
 
-    ``skip_every`` n > 0 leaves out the samples k with k % n == n - 1, the people a training run
+    ``sensor`` overrides capture settings (a run's ``TrainConfig.sensor``). ``skip_every`` n > 0 leaves out the samples k with k % n == n - 1, the people a training run
     holds out of its rooms (``train.scenes.holdout_mask``), so training never reads them.
     """
     from ..scene import load_scene
@@ -87,13 +86,13 @@ def scene_snr(scene_dir: str | Path, skip_every: int = 0) -> SceneSNR:
     st = np.load(scene_dir / "static.npz")
     direct, ambient = torch.as_tensor(st["direct"]).double(), torch.as_tensor(st["ambient"]).double()
     landed = np.asarray(st["spot_landed"], bool)
-    cfg = sensor_config(load_scene(scene_dir))
+    cfg = sensor_config(load_scene(scene_dir), sensor)
     lit = np.flatnonzero(landed)
     static_t = direct[lit] + ambient  # (L, H, W, 3) person-free photographs of the landed spots
     exposures = torch.tensor([auto_exposure(img, cfg) for img in static_t], dtype=torch.float64)
-    amb_exposure = _exposure_or_max(ambient, cfg)
+    amb_exposure = auto_exposure(ambient, cfg)
     flash_direct = torch.as_tensor(st["flash_direct"]).double() if "flash_direct" in st.files else None
-    flash_exposure = _exposure_or_max(flash_direct + ambient, cfg) if flash_direct is not None else None
+    flash_exposure = auto_exposure(flash_direct + ambient, cfg) if flash_direct is not None else None
     per_t, amb, flash = [], [], []
     for k, path in enumerate(sorted((scene_dir / "samples").glob("*.npz"))):
         if skip_every > 0 and k % skip_every == skip_every - 1:
@@ -117,6 +116,7 @@ def scene_snr(scene_dir: str | Path, skip_every: int = 0) -> SceneSNR:
                     len(per_t))
 
 
-def candidate_snr(scene_dir: str | Path, skip_every: int = 0) -> np.ndarray:
-    """(T,) mean NLOS SNR of each candidate spot of a stored scene (0 for spots that land nowhere)."""
-    return scene_snr(scene_dir, skip_every).candidates
+def candidate_snr(scene_dir: str | Path, skip_every: int = 0, sensor: dict | None = None) -> np.ndarray:
+    """(T,) mean NLOS SNR of each candidate spot of a stored scene (0 for spots that land nowhere);
+    ``sensor``: capture settings over the scene's sensor (e.g. a run's ``burst_frames``)."""
+    return scene_snr(scene_dir, skip_every, sensor).candidates

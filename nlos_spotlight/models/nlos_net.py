@@ -6,8 +6,11 @@ empty-room photograph under the same illumination (a capture a user can make; th
 done by the wrapper of ``models.registry`` for every network alike), divided per image by its root
 mean square (:func:`exposure_normalized`: exposure-invariant, and safe for signed differences).
 
+With ``clip_flag`` the sensor's clip flag (B, H, W) is a fourth input channel.
+
 Shapes:
-    images (B, H, W, 3) or (B, 3, H, W) -> position (B, 2) in meters, posture logits (B, 6).
+    images (B, H, W, 3) or (B, 3, H, W), clipped (B, H, W) bool or None
+    -> position (B, 2) in meters, posture logits (B, 6).
 """
 
 from __future__ import annotations
@@ -35,6 +38,8 @@ class NLOSNetConfig:
     """Feed (photograph - empty-room photograph) instead of the photograph (``registry.PositionScaled``)."""
     coord_channels: bool = False
     """Append the pixel's (x, y) in [-1, 1] as two input channels (CoordConv, Liu et al. NeurIPS 2018)."""
+    clip_flag: bool = True
+    """Append the camera's clip flag (1 where the pixel saturated) as an input channel."""
 
 
 def with_coordinates(x: torch.Tensor) -> torch.Tensor:
@@ -61,7 +66,7 @@ class NLOSNet(nn.Module):
     def __init__(self, cfg: NLOSNetConfig | None = None):
         super().__init__()
         self.cfg = cfg = cfg or NLOSNetConfig()
-        self.backbone = ResNet18(3 + 2 * cfg.coord_channels, cfg.stem)
+        self.backbone = ResNet18(3 + 2 * cfg.coord_channels + cfg.clip_flag, cfg.stem)
         h = cfg.head_hidden
         self.position_head = mlp([ResNet18.out_features, h, h, h, 2])
         self.posture_head = mlp([ResNet18.out_features, h, h, h, cfg.postures])
@@ -76,7 +81,14 @@ class NLOSNet(nn.Module):
         """(B, H, W, 3) -> (B, 3, H, W); channels-first input passes through."""
         return images.permute(0, 3, 1, 2) if images.shape[-1] == 3 and images.shape[1] != 3 else images
 
-    def forward(self, images: torch.Tensor):
+    @property
+    def reads_clip_flag(self) -> bool:
+        return self.cfg.clip_flag
+
+    def forward(self, images: torch.Tensor, clipped: torch.Tensor | None = None):
         x = exposure_normalized(images)
+        if self.cfg.clip_flag:  # no flag given: nothing clipped (noise-free images)
+            flag = torch.zeros_like(x[:, :1]) if clipped is None else clipped.unsqueeze(1).to(x.dtype)
+            x = torch.cat([x, flag], dim=1)
         f = self.backbone(with_coordinates(x) if self.cfg.coord_channels else x)
         return self.position_head(f), self.posture_head(f)

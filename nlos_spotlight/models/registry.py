@@ -33,8 +33,12 @@ class PositionScaled(nn.Module):
     With ``subtract`` the network reads ``images - background`` (an empty-room photograph under
     the same illumination), for every architecture alike.
 
+    Pixels the camera clipped (``clipped``, from the sensor) are zeroed in the difference, and a
+    network with ``reads_clip_flag`` also gets the flag as an input channel.
+
     Shapes:
-        images (B, H, W, 3), background (B, H, W, 3) or (H, W, 3) -> position (B, 2) m, logits (B, 6).
+        images (B, H, W, 3), background (B, H, W, 3) or (H, W, 3), clipped (B, H, W) bool
+        -> position (B, 2) m, logits (B, 6).
     """
 
     def __init__(self, net: nn.Module, subtract: bool = False):
@@ -48,12 +52,15 @@ class PositionScaled(nn.Module):
         self.position_mean.copy_(targets.mean(0))
         self.position_std.copy_(targets.std(0).clamp(min=0.05) if len(targets) > 1 else torch.ones(2))
 
-    def forward(self, images: torch.Tensor, background: torch.Tensor | None = None):
+    def forward(self, images: torch.Tensor, background: torch.Tensor | None = None,
+                clipped: torch.Tensor | None = None):
         if self.subtract:
             if background is None:
                 raise ValueError("this network reads photograph - empty-room photograph: pass the background")
             images = images - background
-        pos, logits = self.net(images)
+            if clipped is not None:  # a clipped pixel's difference is the clip, not the person
+                images = images.masked_fill(clipped.unsqueeze(-1), 0.0)
+        pos, logits = self.net(images, clipped) if getattr(self.net, "reads_clip_flag", False) else self.net(images)
         return self.position_mean + self.position_std * pos, logits
 
 

@@ -1,17 +1,20 @@
 """Image formation from the stored transport, differentiable in the spot vector, with sensor noise.
 
 ``image(y) = direct^T y + U^T y V + ambient + nlos_ambient`` (DESIGN section 5, light transport
-matrix F), then the sensor: auto-exposure on the person-free image (no gradient), and shot, read
-and quantization noise as a Gaussian with the exact variance whose mean carries the gradient
-(reparameterization; at thousands of electrons per pixel Poisson is Gaussian to high accuracy).
+matrix F), then the sensor (``render/sensor.py``): average metering on the person-free image (no gradient),
+and shot, read and per-native-pixel quantization noise of a burst as a Gaussian with the exact
+variance whose mean carries the gradient (reparameterization; at thousands of electrons per pixel
+Poisson is Gaussian to high accuracy), clipped at full scale with a flag per pixel.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import torch
 
 from ..errors import NlosError
-from ..render.sensor import SensorConfig, auto_exposure
+from ..render.sensor import SensorConfig, auto_exposure, dn_per_radiance, noise_variance_dn
 from .scenes import SceneTensors
 
 
@@ -20,8 +23,11 @@ def form_images(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor | None,
     """Noise-free images (B, H, W, 3) of samples ``idx`` and the person-free image (H, W, 3).
 
     ``mode`` 'spot': projector on spot vector y (T,); 'flash': the stored flash illumination;
-    'ambient': projector off (y unused).
+    'ambient': projector off (y unused). Image samples hold only the room's stored spots: a y with
+    weight elsewhere, or with a gradient (which needs every candidate's image), raises NlosError.
     """
+    if mode == "spot":
+        _check_stored(s, idx, y)
     if mode == "ambient":
         return s.ambient + s.nlos_ambient[idx], s.ambient
     if mode == "flash":
@@ -34,24 +40,71 @@ def form_images(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor | None,
     return static + nlos + s.nlos_ambient[idx], static
 
 
-def add_sensor_noise(images: torch.Tensor, person_free: torch.Tensor, cfg: SensorConfig,
-                     generator: torch.Generator | None = None) -> torch.Tensor:
-    """A photograph in radiance units: auto-exposed, noisy, differentiable in ``images``."""
-    exposure = auto_exposure(person_free.clamp(min=0), cfg)
-    k = exposure * cfg.electrons_per_radiance * cfg.gain  # DN per radiance unit
-    mean = images.clamp(min=0) * k
-    var = (cfg.gain * mean + (cfg.gain * cfg.read_noise_binned_e) ** 2 + 1.0 / 12).detach()
+def _check_stored(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor) -> None:
+    """NlosError when y asks image samples among ``idx`` for light they do not store (instead of
+    silently rendering none)."""
+    if s.stored is None or s.transport is None or bool(s.stored.all()) or bool(s.transport[idx].all()):
+        return
+    where = s.scene_dir or "scene"
+    k = int(s.stored.sum())
+    if y.requires_grad:
+        raise NlosError(f"{where}: image samples store {k} of {len(s.stored)} spots, and a spot vector with a "
+                        "gradient needs them all (train the spot policy on train.scenes.transport_samples)")
+    off = torch.nonzero((y.detach() != 0) & ~s.stored).flatten()
+    if len(off):
+        raise NlosError(f"{where}: spot {int(off[0])} is not among the {k} spots stored for image samples "
+                        "(spots.json); use full-transport samples (train.scenes.transport_samples)")
+
+
+def capture_sensor(image_shape: tuple[int, int], overrides: dict | None = None) -> SensorConfig:
+    """The sensor of a dataset's photographs: the defaults (procedural scenes carry no ``sensor``
+    overrides), the run's capture settings ``overrides`` (e.g. ``burst_frames``), at (H, W)."""
+    h, w = image_shape
+    return SensorConfig.from_dict({**(overrides or {}), "width": w, "height": h})
+
+
+def add_sensor_noise(images: torch.Tensor, exposure: float, cfg: SensorConfig,
+                     generator: torch.Generator | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+    """A photograph in radiance units and its clip flag (B, H, W): noisy, differentiable in ``images``.
+
+    Gaussian with the exact mean and variance of :func:`~nlos_spotlight.render.sensor.noise_variance_dn`
+    (a burst of ``cfg.burst_frames`` frames averaged), clipped at full scale like the camera.
+    """
+    k = dn_per_radiance(exposure, cfg)  # DN per radiance unit
+    mean = images * k
+    var = noise_variance_dn(mean.detach(), cfg)
     eps = torch.randn(images.shape, generator=generator, device=images.device, dtype=images.dtype)
-    return (mean + var.sqrt() * eps) / k
+    dn = mean + var.sqrt() * eps
+    over = dn.detach() >= cfg.full_scale_dn
+    return dn.clamp(max=cfg.full_scale_dn) / k, over.any(dim=-1)
+
+
+@dataclass
+class Photographs:
+    """What a network reads for one batch (DESIGN section 6): photographs, empty-room photographs, flags."""
+
+    images: torch.Tensor
+    """(B, H, W, 3) photographs with the person, radiance units."""
+    background: torch.Tensor | None
+    """(B, H, W, 3) empty-room photographs under the same illumination and settings, or None."""
+    clipped: torch.Tensor | None
+    """(B, H, W) bool: the pixel clipped in the photograph or the background (None without noise)."""
 
 
 def photographs(images: torch.Tensor, person_free: torch.Tensor, cfg: SensorConfig, generator: torch.Generator | None,
-                noise: bool = True, background: bool = False) -> tuple[torch.Tensor, torch.Tensor | None]:
-    """The network's inputs for noise-free ``images`` (B, H, W, 3): the photographs and, when
-    ``background``, an empty-room photograph per sample (B, H, W, 3) with its own noise, as a user
-    captures it before the person walks in under the same illumination (else None)."""
+                noise: bool = True, background: bool = False) -> Photographs:
+    """The network's inputs for noise-free ``images`` (B, H, W, 3).
+
+    The exposure is metered on the person-free frame (as the camera does before the person walks
+    in); with ``background`` an empty-room photograph per sample (B, H, W, 3) is captured with the
+    same settings and its own noise. Without ``noise`` the images pass through unchanged.
+    """
     bg = person_free.expand_as(images) if background else None
-    if noise:
-        images = add_sensor_noise(images, person_free, cfg, generator)
-        bg = add_sensor_noise(bg, person_free, cfg, generator) if background else None
-    return images, bg
+    if not noise:
+        return Photographs(images, bg, None)
+    exposure = auto_exposure(person_free.clamp(min=0), cfg)
+    images, clipped = add_sensor_noise(images.clamp(min=0), exposure, cfg, generator)
+    if background:
+        bg, bg_clipped = add_sensor_noise(bg.clamp(min=0), exposure, cfg, generator)
+        clipped = clipped | bg_clipped
+    return Photographs(images, bg, clipped)

@@ -31,7 +31,7 @@ from ..models.ien import IEN
 from ..models.registry import build_network
 from ..render.sensor import SensorConfig
 from .config import TrainConfig
-from .imaging import form_images, photographs
+from .imaging import capture_sensor, form_images, photographs
 from .scenes import SceneTensors, load_split, room_samples
 
 
@@ -61,7 +61,8 @@ def spot_snr_targets(cfg: TrainConfig, scenes: list[SceneTensors]) -> list[torch
         if not s.scene_dir:  # scenes built in memory carry no stored transport to measure
             out.append(None)
             continue
-        snr = torch.as_tensor(candidate_snr(s.scene_dir, cfg.holdout_every), dtype=torch.float32, device=s.x.device)
+        snr = torch.as_tensor(candidate_snr(s.scene_dir, cfg.holdout_every, cfg.sensor), dtype=torch.float32,
+                              device=s.x.device)
         out.append(snr / snr.max().clamp(min=1e-30))
     return out
 
@@ -87,7 +88,7 @@ class Trainer:
         self.device = torch.device(f"cuda:{int(os.environ.get('LOCAL_RANK', 0))}" if cuda else "cpu")
         self.scenes = [s.to(self.device) for s in scenes]
         h, w = scenes[0].ambient.shape[:2]
-        self.sensor = sensor or SensorConfig(width=w, height=h)
+        self.sensor = sensor or capture_sensor((h, w), cfg.sensor)
         torch.manual_seed(cfg.seed)
         ien_cfg = dataclasses.replace(cfg.ien, in_features=scenes[0].x.shape[1])
         self.ien, self.net = IEN(ien_cfg).to(self.device), build_network(cfg.arch, cfg.net).to(self.device)
@@ -167,15 +168,14 @@ class Trainer:
         """
         scenes = [s for s, _ in parts]
         ills = self.illuminations(scenes, train)
-        images, backgrounds = [], []
+        photos = []
         for (s, idx), (y, mode, _) in zip(parts, ills):
             img, person_free = form_images(s, idx, y, mode)
-            img, bg = photographs(img, person_free, self.sensor, self.gen, self.cfg.sensor_noise,
-                                  self.cfg.net.background_subtract)
-            images.append(img)
-            backgrounds.append(bg)
-        background = torch.cat(backgrounds) if backgrounds[0] is not None else None
-        pos, post = self.net_ddp(torch.cat(images), background)
+            photos.append(photographs(img, person_free, self.sensor, self.gen, self.cfg.sensor_noise,
+                                      self.cfg.net.background_subtract))
+        cat = lambda name: torch.cat([getattr(p, name) for p in photos]) if getattr(photos[0], name) is not None \
+            else None
+        pos, post = self.net_ddp(cat("images"), cat("background"), cat("clipped"))
         target = torch.cat([s.target[idx] for s, idx in parts])
         posture = torch.cat([s.posture[idx] for s, idx in parts])
         pos_loss = F.mse_loss(pos, target)

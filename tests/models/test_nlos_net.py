@@ -48,4 +48,18 @@ def test_coordinate_channels_locate_pixels():
     assert torch.allclose(x[0, 3, 2], torch.tensor([-1.0, -0.5, 0.0, 0.5, 1.0]))  # x along a row
     assert torch.allclose(x[1, 4, :, 3], torch.tensor([-1.0, -1 / 3, 1 / 3, 1.0]))  # y down a column
     net = NLOSNet(NLOSNetConfig(coord_channels=True)).eval()
-    assert net.backbone.stem[0].in_channels == 5 and net(torch.rand(2, 16, 16, 3))[0].shape == (2, 2)
+    assert net.backbone.stem[0].in_channels == 6 and net(torch.rand(2, 16, 16, 3))[0].shape == (2, 2)
+
+
+def test_clip_flag_is_an_input_channel():
+    """The camera's clip flag reaches the backbone: a flagged pixel changes the output."""
+    torch.manual_seed(0)
+    net = NLOSNet(NLOSNetConfig()).eval()
+    assert net.backbone.stem[0].in_channels == 4
+    img = torch.rand(1, 16, 16, 3)
+    flag = torch.zeros(1, 16, 16, dtype=torch.bool)
+    base = net(img)[1]
+    torch.testing.assert_close(net(img, flag)[1], base)  # no flag = nothing clipped
+    flag[0, 3:6, 3:6] = True
+    assert not torch.allclose(net(img, flag)[1], base)
+    assert NLOSNet(NLOSNetConfig(clip_flag=False)).backbone.stem[0].in_channels == 3
