@@ -21,7 +21,7 @@ import torch
 from torch import nn
 
 from .ien import mlp
-from .resnet import ResNet18
+from .resnet import backbone
 
 
 @dataclass
@@ -38,6 +38,8 @@ class NLOSNetConfig:
     """Feed (photograph - empty-room photograph) instead of the photograph (``registry.PositionScaled``)."""
     coord_channels: bool = False
     """Append the pixel's (x, y) in [-1, 1] as two input channels (CoordConv, Liu et al. NeurIPS 2018)."""
+    backbone: str = "resnet18"
+    """Feature extractor (``models.resnet.BACKBONES``): 'resnet18' (the paper's) or 'resnet10-narrow'."""
     clip_flag: bool = True
     """Append the camera's clip flag (1 where the pixel saturated) as an input channel."""
 
@@ -66,10 +68,10 @@ class NLOSNet(nn.Module):
     def __init__(self, cfg: NLOSNetConfig | None = None):
         super().__init__()
         self.cfg = cfg = cfg or NLOSNetConfig()
-        self.backbone = ResNet18(3 + 2 * cfg.coord_channels + cfg.clip_flag, cfg.stem)
-        h = cfg.head_hidden
-        self.position_head = mlp([ResNet18.out_features, h, h, h, 2])
-        self.posture_head = mlp([ResNet18.out_features, h, h, h, cfg.postures])
+        self.backbone = backbone(cfg.backbone, 3 + 2 * cfg.coord_channels + cfg.clip_flag, cfg.stem)
+        h, f = cfg.head_hidden, self.backbone.out_features
+        self.position_head = mlp([f, h, h, h, 2])
+        self.posture_head = mlp([f, h, h, h, cfg.postures])
 
     def reset_parameters(self) -> None:
         for m in self.modules():

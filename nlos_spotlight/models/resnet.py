@@ -35,26 +35,33 @@ class BasicBlock(nn.Module):
         return torch.relu(out + (x if self.down is None else self.down(x)))
 
 
-class ResNet18(nn.Module):
-    """ResNet-18 without its classifier (see module docstring)."""
+class ResNet(nn.Module):
+    """A ResNet feature extractor: stem, stages of BasicBlocks (stride 2 from the second stage), pooling.
 
-    out_features = 512
+    Args:
+        in_channels: input channels.
+        stem: 'cifar' (3x3, stride 1) or 'imagenet' (7x7 stride 2 + max-pool).
+        widths: channels of each stage.
+        blocks: BasicBlocks per stage.
+    """
 
-    def __init__(self, in_channels: int = 3, stem: str = "cifar"):
+    def __init__(self, in_channels: int = 3, stem: str = "cifar", widths=(64, 128, 256, 512), blocks=(2, 2, 2, 2)):
         super().__init__()
+        w0 = widths[0]
         if stem == "imagenet":
-            self.stem = nn.Sequential(nn.Conv2d(in_channels, 64, 7, 2, 3, bias=False), nn.BatchNorm2d(64),
+            self.stem = nn.Sequential(nn.Conv2d(in_channels, w0, 7, 2, 3, bias=False), nn.BatchNorm2d(w0),
                                       nn.ReLU(), nn.MaxPool2d(3, 2, 1))
         elif stem == "cifar":
-            self.stem = nn.Sequential(nn.Conv2d(in_channels, 64, 3, 1, 1, bias=False), nn.BatchNorm2d(64), nn.ReLU())
+            self.stem = nn.Sequential(nn.Conv2d(in_channels, w0, 3, 1, 1, bias=False), nn.BatchNorm2d(w0), nn.ReLU())
         else:
             raise ValueError(f"stem must be 'imagenet' or 'cifar', got {stem!r}")
-        stages, cin = [], 64
-        for i, cout in enumerate((64, 128, 256, 512)):
+        stages, cin = [], w0
+        for i, (cout, n) in enumerate(zip(widths, blocks)):
             stride = 1 if i == 0 else 2
-            stages.append(nn.Sequential(BasicBlock(cin, cout, stride), BasicBlock(cout, cout)))
+            stages.append(nn.Sequential(BasicBlock(cin, cout, stride), *[BasicBlock(cout, cout) for _ in range(n - 1)]))
             cin = cout
         self.stages = nn.Sequential(*stages)
+        self.out_features = widths[-1]
         self.reset_parameters()
 
     def reset_parameters(self) -> None:
@@ -67,3 +74,27 @@ class ResNet18(nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return self.stages(self.stem(x)).mean(dim=(2, 3))
+
+
+class ResNet18(ResNet):
+    """ResNet-18 without its classifier (see module docstring)."""
+
+    out_features = 512
+
+    def __init__(self, in_channels: int = 3, stem: str = "cifar"):
+        super().__init__(in_channels, stem)
+
+
+BACKBONES = {
+    "resnet18": dict(widths=(64, 128, 256, 512), blocks=(2, 2, 2, 2)),
+    "resnet10-narrow": dict(widths=(32, 64, 128, 256), blocks=(1, 1, 1, 1)),
+}
+"""Backbone name -> ResNet widths and blocks. 'resnet10-narrow' (one block per stage at half width,
+1.2 M parameters against 11.2 M) is the lighter network the learning-curve sweeps train on CPU."""
+
+
+def backbone(name: str, in_channels: int, stem: str) -> ResNet:
+    """A backbone of :data:`BACKBONES` by name."""
+    if name not in BACKBONES:
+        raise ValueError(f"backbone must be one of {', '.join(BACKBONES)}, got {name!r}")
+    return ResNet(in_channels, stem, **BACKBONES[name])

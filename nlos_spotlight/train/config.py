@@ -51,6 +51,18 @@ class TrainConfig:
     """Temperature of that target: candidates 0.05 below the best SNR (relative) get e^-1 of its weight."""
     holdout_every: int = 0
     """Hold every n-th static sample of each training room out of training (the seen-rooms test; 0: none)."""
+    spot_steps: int = 0
+    """Two-stage training: steps of stage 1 (the IEN on its SNR target alone) before the network trains
+    under the IEN's frozen spots for ``steps`` more; 0 trains end to end."""
+    val_every: int = 0
+    """Validation: every n-th trained-on static sample of each training room is held out of the gradient
+    and scored every ``eval_every`` steps; the best-scoring weights become final.pt (0: none)."""
+    eval_every: int = 100
+    """Steps between validation passes."""
+    patience: int = 0
+    """Stop after this many validation passes without improvement (0: never stop early)."""
+    lr_schedule: str = "constant"
+    """'constant' or 'cosine' (from lr down to lr / 100 over the network's steps)."""
     ien_features: list[str] = field(default_factory=lambda: ["normals"])
     """Extra IEN vertex features besides coordinates: 'normals'."""
     ien: IENConfig = field(default_factory=IENConfig)

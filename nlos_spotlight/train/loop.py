@@ -52,7 +52,7 @@ def fixed_illuminations(cfg: TrainConfig, scenes: list[SceneTensors]):
 
 def spot_snr_targets(cfg: TrainConfig, scenes: list[SceneTensors]) -> list[torch.Tensor | None] | None:
     """Per scene (T,) candidate NLOS SNR over its best (``lighting.snr``), for ``snr_weight > 0``."""
-    if cfg.snr_weight <= 0:
+    if cfg.snr_weight <= 0 and cfg.spot_steps <= 0:
         return None
     from ..lighting.snr import candidate_snr
 
@@ -80,12 +80,14 @@ def straight_through_spot(logits: torch.Tensor, landed: torch.Tensor, tau: float
 class Trainer:
     """State and steps of one run (see module docstring)."""
 
-    def __init__(self, cfg: TrainConfig, scenes: list[SceneTensors], out: Path, sensor: SensorConfig | None = None):
+    def __init__(self, cfg: TrainConfig, scenes: list[SceneTensors], out: Path, sensor: SensorConfig | None = None,
+                 val_scenes: list[SceneTensors] | None = None):
         self.cfg, self.out = cfg, out
+        self.val_scenes = [s.to(self.device_for(cfg)) for s in val_scenes] if val_scenes else None
+        self.best_val, self.bad_evals = float("inf"), 0
         self.rank = int(os.environ.get("RANK", 0))
         self.world = int(os.environ.get("WORLD_SIZE", 1))
-        cuda = cfg.device == "cuda" or (cfg.device == "auto" and torch.cuda.is_available())
-        self.device = torch.device(f"cuda:{int(os.environ.get('LOCAL_RANK', 0))}" if cuda else "cpu")
+        self.device = self.device_for(cfg)
         self.scenes = [s.to(self.device) for s in scenes]
         h, w = scenes[0].ambient.shape[:2]
         self.sensor = sensor or capture_sensor((h, w), cfg.sensor)
@@ -106,8 +108,43 @@ class Trainer:
             groups.insert(0, {"params": self.ien.parameters(), "lr": cfg.lr * cfg.ien_lr_scale})
         self.opt = torch.optim.Adam(groups,
                                     lr=cfg.lr, weight_decay=cfg.weight_decay)
+        self.base_lrs = [g["lr"] for g in self.opt.param_groups]
         self.gen = torch.Generator(device=self.device).manual_seed(cfg.seed * 1000 + self.rank)
         self.step = 0
+
+    @staticmethod
+    def device_for(cfg: TrainConfig) -> torch.device:
+        cuda = cfg.device == "cuda" or (cfg.device == "auto" and torch.cuda.is_available())
+        return torch.device(f"cuda:{int(os.environ.get('LOCAL_RANK', 0))}" if cuda else "cpu")
+
+    @property
+    def total_steps(self) -> int:
+        """Stage 1 (two-stage only) plus the network's steps."""
+        return self.cfg.spot_steps + self.cfg.steps
+
+    @property
+    def in_spot_stage(self) -> bool:
+        return self.step < self.cfg.spot_steps
+
+    def freeze_spots(self) -> None:
+        """End of stage 1: each room keeps the IEN's most probable spot (what inference picks)."""
+        from ..lighting.base import Illumination
+
+        self.ien.eval()
+        with torch.no_grad():
+            logits = self.ien_logits(self.scenes)
+        self.fixed = [Illumination("spot", int(lg.masked_fill(~s.landed, float("-inf")).argmax()))
+                      for s, lg in zip(self.scenes, logits)]
+        self.spot_snr = None
+
+    def set_learning_rate(self) -> None:
+        """Cosine decay over the network's steps (a pure function of the step, so resume is exact)."""
+        if self.cfg.lr_schedule != "cosine":
+            return
+        t = min(max(self.step - self.cfg.spot_steps, 0) / max(self.cfg.steps, 1), 1.0)
+        factor = 0.01 + 0.99 * 0.5 * (1 + np.cos(np.pi * t))
+        for g, base in zip(self.opt.param_groups, self.base_lrs):
+            g["lr"] = base * factor
 
     # ------------------------------------------------------------ one step
     def ien_logits(self, scenes: list[SceneTensors]) -> list[torch.Tensor]:
@@ -190,7 +227,29 @@ class Trainer:
                 "spot": y.argmax() if y is not None else torch.tensor(-1),
                 "pred": pos, "logits": post}
 
+    def spot_step(self) -> dict:
+        """Stage 1 of two-stage training: the IEN's cross-entropy to its rooms' SNR targets, no images."""
+        self.ien.train()
+        picks = [int(torch.randint(len(self.scenes), (1,), generator=self.gen, device=self.device))
+                 for _ in range(self.cfg.scenes_per_step)]
+        scenes = [self.scenes[i] for i in picks]
+        if self.spot_snr is None or any(self.spot_snr[i] is None for i in picks):
+            raise NlosError("two-stage training: stage 1 needs every room's stored transport (its SNR target)")
+        loss = torch.stack([self.spot_loss(s, lg) for s, lg in zip(scenes, self.ien_logits(scenes))]).mean()
+        self.opt.zero_grad()
+        loss.backward()
+        self.opt.step()
+        self.step += 1
+        if self.step == self.cfg.spot_steps:
+            self.freeze_spots()
+        nan = float("nan")
+        return {"loss": float(loss.detach()), "spot_loss": float(loss.detach()), "pos_loss": nan, "cls_loss": nan,
+                "err_cm": nan, "acc": nan, "spot": -1, "scene": picks[0]}
+
     def train_step(self) -> dict:
+        if self.in_spot_stage:
+            return self.spot_step()
+        self.set_learning_rate()
         self.ien.train()
         self.net.train()
         k = self.cfg.scenes_per_step
@@ -207,6 +266,31 @@ class Trainer:
         self.step += 1
         return {k: float(v.detach()) for k, v in out.items() if k not in ("pred", "logits")} | {"scene": picks[0]}
 
+    def validate(self, batch: int = 64) -> dict:
+        """Mean loss, error and accuracy on the validation people of the training rooms, each room under
+        the spot the run would use there, with the same sensor noise at every pass."""
+        self.ien.eval()
+        self.net.eval()
+        gen = torch.Generator(device=self.device).manual_seed(self.cfg.seed * 1000 + 999)
+        tot = {"loss": 0.0, "err_cm": 0.0, "acc": 0.0}
+        n = 0
+        with torch.no_grad():
+            for s, v in zip(self.scenes, self.val_scenes):
+                (y, mode, _), = self.illuminations([s], train=False)
+                for a in range(0, v.num_samples, batch):
+                    idx = torch.arange(a, min(a + batch, v.num_samples), device=self.device)
+                    img, free = form_images(v, idx, y, mode)
+                    ph = photographs(img, free, self.sensor, gen, self.cfg.sensor_noise,
+                                     self.cfg.net.background_subtract)
+                    pos, post = self.net(ph.images, ph.background, ph.clipped)
+                    loss = self.cfg.position_weight * F.mse_loss(pos, v.target[idx], reduction="sum") / 2 \
+                        + self.cfg.posture_weight * F.cross_entropy(post, v.posture[idx], reduction="sum")
+                    tot["loss"] += float(loss)
+                    tot["err_cm"] += float(100 * (pos - v.target[idx]).norm(dim=1).sum())
+                    tot["acc"] += float((post.argmax(1) == v.posture[idx]).sum())
+                    n += len(idx)
+        return {k: v / max(n, 1) for k, v in tot.items()}
+
     # ------------------------------------------------------------ checkpoints
     def state(self) -> dict:
         from ..data.generate import versions
@@ -215,7 +299,8 @@ class Trainer:
                 "opt": self.opt.state_dict(), "gen": self.gen.get_state(), "torch_rng": torch.get_rng_state(),
                 "numpy_rng": np.random.get_state(), "python_rng": random.getstate(),
                 "config": self.cfg.to_dict(), "versions": versions(), "in_features": self.ien.cfg.in_features,
-                "image_shape": list(self.image_shape), "format": CHECKPOINT_FORMAT}
+                "image_shape": list(self.image_shape), "format": CHECKPOINT_FORMAT,
+                "best_val": self.best_val, "bad_evals": self.bad_evals}
 
     def save(self, path: Path) -> None:
         if self.rank != 0:
@@ -237,6 +322,9 @@ class Trainer:
         np.random.set_state(st["numpy_rng"])
         random.setstate(st["python_rng"])
         self.step = st["step"]
+        self.best_val, self.bad_evals = st.get("best_val", float("inf")), st.get("bad_evals", 0)
+        if self.cfg.spot_steps > 0 and self.step >= self.cfg.spot_steps:
+            self.freeze_spots()
 
 
 def check_config(cfg: TrainConfig) -> None:
@@ -244,13 +332,53 @@ def check_config(cfg: TrainConfig) -> None:
     if not 1 <= cfg.scenes_per_step <= cfg.batch_size:
         raise NlosError(f"config: scenes_per_step must be in 1..batch_size ({cfg.batch_size}), "
                         f"got {cfg.scenes_per_step}")
-    if cfg.holdout_every == 1 or cfg.holdout_every < 0:
-        raise NlosError(f"config: holdout_every must be 0 (none) or at least 2, got {cfg.holdout_every}")
+    for name in ("holdout_every", "val_every"):
+        if getattr(cfg, name) == 1 or getattr(cfg, name) < 0:
+            raise NlosError(f"config: {name} must be 0 (none) or at least 2, got {getattr(cfg, name)}")
+    for name in ("steps", "eval_every"):
+        if getattr(cfg, name) < 1:
+            raise NlosError(f"config: {name} must be at least 1, got {getattr(cfg, name)}")
+    for name in ("spot_steps", "patience"):
+        if getattr(cfg, name) < 0:
+            raise NlosError(f"config: {name} must be at least 0, got {getattr(cfg, name)}")
+    if cfg.lr_schedule not in ("constant", "cosine"):
+        raise NlosError(f"config: lr_schedule must be 'constant' or 'cosine', got {cfg.lr_schedule!r}")
+    if cfg.spot_steps > 0 and cfg.policy != "ien":
+        raise NlosError(f"config: spot_steps (two-stage training) trains the IEN; policy is '{cfg.policy}'")
+
+
+def split_validation(s: SceneTensors, every: int) -> tuple[SceneTensors, SceneTensors | None]:
+    """A training room's samples -> (trained on, validation): every n-th static sample validates."""
+    if every <= 0:
+        return s, None
+    k = torch.arange(s.num_samples, device=s.posture.device)
+    val = (s.trajectory[:, 0] < 0) & (k % every == every - 1)
+    return s.subset(torch.nonzero(~val).flatten()), s.subset(torch.nonzero(val).flatten())
+
+
+def _validation_pass(tr: Trainer, out: Path) -> bool:
+    """Score the validation people; keep the best weights in best.pt. Returns True to stop early."""
+    row = tr.validate()
+    path = out / "validation.csv"
+    if tr.rank == 0:
+        new = not path.exists()
+        with path.open("a", newline="") as f:
+            w = csv.writer(f)
+            if new:
+                w.writerow(["step", "loss", "err_cm", "acc"])
+            w.writerow([tr.step, row["loss"], row["err_cm"], row["acc"]])
+    if row["loss"] < tr.best_val:
+        tr.best_val, tr.bad_evals = row["loss"], 0
+        tr.save(out / "best.pt")
+    else:
+        tr.bad_evals += 1
+    return tr.cfg.patience > 0 and tr.bad_evals >= tr.cfg.patience
 
 
 def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool = False,
           progress: bool = True) -> Trainer:
-    """Train (or resume) a run in ``out``: config.json, metrics.csv, checkpoint.pt, final.pt.
+    """Train (or resume) a run in ``out``: config.json, metrics.csv, checkpoint.pt, final.pt
+    (with validation also validation.csv and best.pt; final.pt then holds the best weights).
 
     metrics.csv's ``spot`` and ``scene`` columns name the first room of each step's batch.
     """
@@ -268,7 +396,9 @@ def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool 
     check_config(cfg)
     keep = lambda s: room_samples(s, cfg.holdout_every, held=False)
     scenes = load_split(data_dir, "train", cfg.ien_features, keep=keep)
-    tr = Trainer(cfg, scenes, out)
+    parts = [split_validation(s, cfg.val_every) for s in scenes]
+    val = [v for _, v in parts] if cfg.val_every > 0 else None
+    tr = Trainer(cfg, [t for t, _ in parts], out, val_scenes=val)
     if resume and ckpt.exists():
         tr.load(ckpt)
     if tr.rank == 0:
@@ -282,16 +412,22 @@ def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool 
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     cols = (TextColumn("train"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(), TextColumn("{task.description}"))
+    stop = cfg.patience > 0 and tr.bad_evals >= cfg.patience  # a resumed run that had stopped early
     with Progress(*cols, console=console, disable=QUIET or not progress or tr.rank != 0) as bar:
-        task = bar.add_task("", total=cfg.steps, completed=tr.step)
-        while tr.step < cfg.steps:
+        task = bar.add_task("", total=tr.total_steps, completed=tr.step)
+        while tr.step < tr.total_steps and not stop:
             row = tr.train_step()
             bar.update(task, advance=1, description=f"loss {row['loss']:.3f} err {row['err_cm']:.0f} cm")
-            if tr.rank == 0 and (tr.step % cfg.log_every == 0 or tr.step == cfg.steps):
+            if tr.rank == 0 and (tr.step % cfg.log_every == 0 or tr.step == tr.total_steps):
                 with metrics.open("a", newline="") as f:
                     csv.writer(f).writerow([tr.step] + [row[k] for k in fields[1:-1]] + [time.perf_counter() - t0])
-            if tr.step % cfg.ckpt_every == 0 or tr.step == cfg.steps:
+            net_step = tr.step - cfg.spot_steps
+            if val is not None and net_step > 0 and (net_step % cfg.eval_every == 0 or tr.step == tr.total_steps):
+                stop = _validation_pass(tr, out)
+            if tr.step % cfg.ckpt_every == 0 or tr.step == tr.total_steps or stop:
                 tr.save(ckpt)
+    if val is not None and (out / "best.pt").exists():
+        tr.load(out / "best.pt")
     tr.save(out / "final.pt")
     if distributed:
         torch.distributed.barrier()

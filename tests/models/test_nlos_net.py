@@ -63,3 +63,15 @@ def test_clip_flag_is_an_input_channel():
     flag[0, 3:6, 3:6] = True
     assert not torch.allclose(net(img, flag)[1], base)
     assert NLOSNet(NLOSNetConfig(clip_flag=False)).backbone.stem[0].in_channels == 3
+
+
+def test_narrow_backbone_is_a_smaller_resnet():
+    """'resnet10-narrow': one BasicBlock per stage at half width, 256 features, about a ninth of the weights."""
+    from nlos_spotlight.models.resnet import backbone
+
+    small, big = backbone("resnet10-narrow", 3, "cifar"), backbone("resnet18", 3, "cifar")
+    count = lambda m: sum(p.numel() for p in m.parameters())
+    assert small.out_features == 256 and len(small.stages) == 4 and all(len(s) == 1 for s in small.stages)
+    assert 8 < count(big) / count(small) < 10
+    net = NLOSNet(NLOSNetConfig(backbone="resnet10-narrow")).eval()
+    assert net(torch.rand(2, 32, 32, 3))[1].shape == (2, 6)

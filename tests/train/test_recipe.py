@@ -1,0 +1,84 @@
+"""The training recipe: two-stage training, validation with best weights and early stopping, cosine schedule."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+
+sys.path.insert(0, str(Path(__file__).parent))
+from toy import toy_scene  # noqa: E402
+
+from nlos_spotlight.train.config import TrainConfig  # noqa: E402
+from nlos_spotlight.train.loop import Trainer, _validation_pass, split_validation  # noqa: E402
+
+
+def test_two_stage_freezes_the_ien_on_its_snr_spot_then_trains_the_network():
+    cfg = TrainConfig(spot_steps=30, steps=5, batch_size=4, sensor_noise=False)
+    tr = Trainer(cfg, [toy_scene()], Path("unused"))
+    s = tr.scenes[0]
+    with torch.no_grad():
+        best = int(tr.ien(s.x, s.edge_index, s.faces).argmin())  # the initially least likely face
+    snr = torch.full((len(s.faces),), 0.2)
+    snr[best] = 1.0
+    tr.spot_snr = [snr]
+    net0 = [p.detach().clone() for p in tr.net.parameters()]
+    for _ in range(cfg.spot_steps):
+        tr.train_step()
+    assert all(torch.equal(a, b) for a, b in zip(net0, tr.net.parameters()))  # stage 1 leaves the network
+    assert tr.fixed is not None and tr.fixed[0].face == best and not tr.in_spot_stage
+    ien1 = [p.detach().clone() for p in tr.ien.parameters()]
+    while tr.step < tr.total_steps:
+        tr.train_step()
+    assert all(torch.equal(a, b) for a, b in zip(ien1, tr.ien.parameters()))  # stage 2 leaves the IEN
+    assert not all(torch.equal(a, b) for a, b in zip(net0, tr.net.parameters()))
+
+
+def test_two_stage_without_snr_targets_is_a_one_line_error():
+    from nlos_spotlight.errors import NlosError
+
+    tr = Trainer(TrainConfig(spot_steps=3, batch_size=4, sensor_noise=False), [toy_scene()], Path("unused"))
+    with pytest.raises(NlosError, match="stage 1 needs"):
+        tr.train_step()
+
+
+def test_validation_split_is_disjoint_and_scores_like_the_loss():
+    room = toy_scene(n=40)
+    fit, val = split_validation(room, 4)
+    assert fit.num_samples == 30 and val.num_samples == 10
+    assert not set(fit.target[:, 0].tolist()) & set(val.target[:, 0].tolist())
+    cfg = TrainConfig(batch_size=4, sensor_noise=False)
+    tr = Trainer(cfg, [fit], Path("unused"), val_scenes=[val])
+    row = tr.validate(batch=3)  # batches of 3 must not change the mean
+    with torch.no_grad():
+        ref = tr.loss_on(tr.val_scenes[0], torch.arange(val.num_samples), train=False)
+    assert row["loss"] == pytest.approx(float(ref["pos_loss"] + ref["cls_loss"]), rel=1e-5)
+    assert row["err_cm"] == pytest.approx(float(ref["err_cm"]), rel=1e-5)
+    assert row["acc"] == pytest.approx(float(ref["acc"]), abs=1e-6)
+
+
+def test_best_weights_are_kept_and_patience_stops(tmp_path, monkeypatch):
+    room = toy_scene(n=16)
+    fit, val = split_validation(room, 4)
+    tr = Trainer(TrainConfig(batch_size=4, sensor_noise=False, patience=2), [fit], tmp_path, val_scenes=[val])
+    losses = iter([3.0, 2.0, 2.5, 2.2, 1.0])
+    monkeypatch.setattr(tr, "validate", lambda: {"loss": next(losses), "err_cm": 0.0, "acc": 0.0})
+    stops = []
+    for step in range(4):
+        tr.step = step
+        stops.append(_validation_pass(tr, tmp_path))
+    assert stops == [False, False, False, True]
+    assert tr.best_val == 2.0 and torch.load(tmp_path / "best.pt", weights_only=False)["step"] == 1
+    assert (tmp_path / "validation.csv").read_text().count("\n") == 5
+
+
+def test_cosine_schedule_decays_to_one_percent():
+    cfg = TrainConfig(steps=10, batch_size=4, sensor_noise=False, lr_schedule="cosine", lr=1e-3)
+    tr = Trainer(cfg, [toy_scene()], Path("unused"))
+    tr.set_learning_rate()
+    assert tr.opt.param_groups[-1]["lr"] == pytest.approx(1e-3)
+    tr.step = 10
+    tr.set_learning_rate()
+    assert tr.opt.param_groups[-1]["lr"] == pytest.approx(1e-5)
