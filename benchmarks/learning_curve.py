@@ -1,0 +1,155 @@
+"""The ceiling in seen rooms: posture accuracy and localization error against people per room.
+
+In every training room of a dataset (``nlos_spotlight.evaluate.seen``: 10 % of each room's people
+held out as test, 10 % as validation), train the NLOS network on the first N people of each room:
+
+* the oracle spot, N in ``--sizes``, noise-free and with the default capture;
+* the IEN (two-stage: SNR target, then frozen), Adaptive Lighting, center and random spots at the
+  largest N with the default capture;
+* ResNet-18 (the paper's backbone) once at the largest N beside the lighter backbone.
+
+Each run is resumable and keeps its scores in ``--runs``/KEY/result.json; the table is
+``--out``/learning-curve.csv (``protocol,capture,policy,people_per_room,posture_accuracy,
+posture3_accuracy,error_cm,crb_cm,seeds``; accuracies in %, errors in cm), with ``arch`` and
+``mean_answer_cm`` columns beside them, a JSON of the confusion matrices and a plot. ``crb_cm`` comes
+from ``benchmarks/position_crb.py`` (``--crb`` its JSON) where it was run.
+
+    python benchmarks/learning_curve.py --data out/lc/data [--sizes 100,300,1000,3000] [--epochs 30]
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from nlos_spotlight.evaluate.seen import run_seen, split_room
+from nlos_spotlight.models.nlos_net import NLOSNetConfig
+from nlos_spotlight.train.config import TrainConfig
+from nlos_spotlight.train.scenes import load_split
+
+COLUMNS = ["protocol", "capture", "policy", "people_per_room", "posture_accuracy", "posture3_accuracy", "error_cm",
+           "crb_cm", "seeds", "arch", "mean_answer_cm", "steps", "seconds"]
+
+
+def base_config(args, seed: int, backbone: str) -> TrainConfig:
+    net = NLOSNetConfig(background_subtract=True, backbone=backbone)
+    return TrainConfig(name="learning-curve", seed=seed, batch_size=args.batch, scenes_per_step=1, lr=args.lr,
+                       lr_schedule="cosine", patience=args.patience, holdout_every=10, net=net, device="cpu")
+
+
+def plan(args) -> list[dict]:
+    sizes = [int(v) for v in args.sizes.split(",")]
+    runs = [dict(capture=c, policy="oracle", n=n, backbone=args.backbone) for c in ("noise-free", "default")
+            for n in sizes]
+    runs += [dict(capture="default", policy=p, n=sizes[-1], backbone=args.backbone)
+             for p in args.policies.split(",") if p]
+    if args.resnet18:
+        runs.append(dict(capture="default", policy="oracle", n=sizes[-1], backbone="resnet18"))
+    return runs
+
+
+def run_one(args, rooms, spec: dict, seed: int):
+    cfg = base_config(args, seed, spec["backbone"])
+    cfg = dataclasses.replace(cfg, sensor_noise=spec["capture"] == "default")
+    if spec["policy"] == "ien":
+        cfg = dataclasses.replace(cfg, policy="ien", spot_steps=args.spot_steps)
+    else:
+        cfg = dataclasses.replace(cfg, policy=spec["policy"])
+    key = f"{spec['capture']}-{spec['policy']}-{spec['n']}-{spec['backbone']}-s{seed}"
+    epochs = args.epochs * (args.resnet18_epoch_scale if spec["backbone"] == "resnet18" else 1.0)
+    return run_seen(cfg, rooms, spec["n"], Path(args.runs) / key, epochs, progress=not args.quiet)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", required=True, help="dataset whose train split holds the rooms")
+    ap.add_argument("--sizes", default="100,300,1000,3000", help="training people per room")
+    ap.add_argument("--policies", default="ien,adaptive,center,random", help="other spots at the largest size")
+    ap.add_argument("--backbone", default="resnet10-narrow")
+    ap.add_argument("--resnet18", action="store_true", help="also ResNet-18 once at the largest size")
+    ap.add_argument("--resnet18-epoch-scale", type=float, default=0.5)
+    ap.add_argument("--epochs", type=float, default=40)
+    ap.add_argument("--patience", type=int, default=8)
+    ap.add_argument("--batch", type=int, default=64)
+    ap.add_argument("--lr", type=float, default=2e-3)
+    ap.add_argument("--spot-steps", type=int, default=300)
+    ap.add_argument("--seeds", type=int, default=1)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--runs", default="out/learning-curve/runs")
+    ap.add_argument("--out", default="docs/results")
+    ap.add_argument("--crb", default="", help="JSON of benchmarks/position_crb.py: crb_cm per policy")
+    ap.add_argument("--quiet", action="store_true")
+    args = ap.parse_args()
+    torch.set_num_threads(args.threads)
+    rooms = [split_room(s) for s in load_split(args.data, "train", ["normals"])]
+    print(f"{len(rooms)} rooms; pool/val/test people per room: "
+          + ", ".join(f"{r.pool.num_samples}/{r.val.num_samples}/{r.test.num_samples}" for r in rooms), flush=True)
+    crb = json.loads(Path(args.crb).read_text()) if args.crb else {}
+    rows, confusions = [], {}
+    for spec in plan(args):
+        if spec["n"] > min(r.pool.num_samples for r in rooms):
+            print(f"skip {spec}: the rooms hold fewer pool people", flush=True)
+            continue
+        res = [run_one(args, rooms, spec, seed) for seed in range(args.seeds)]
+        mean = lambda k: float(np.mean([getattr(r, k) for r in res]))
+        row = {"protocol": "seen", "capture": spec["capture"], "policy": spec["policy"],
+               "people_per_room": spec["n"], "posture_accuracy": round(mean("posture_accuracy"), 2),
+               "posture3_accuracy": round(mean("posture3_accuracy"), 2), "error_cm": round(mean("error_cm"), 2),
+               "crb_cm": crb.get(spec["policy"], "") if spec["capture"] == "default" else "",
+               "seeds": len(res), "arch": spec["backbone"], "mean_answer_cm": round(mean("mean_answer_cm"), 2),
+               "steps": int(mean("steps")), "seconds": round(mean("seconds"), 1)}
+        rows.append(row)
+        confusions[f"{spec['capture']}-{spec['policy']}-{spec['n']}-{spec['backbone']}"] = \
+            np.sum([r.confusion for r in res], axis=0).tolist()
+        print(" ".join(f"{k}={row[k]}" for k in COLUMNS), flush=True)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    with (out / "learning-curve.csv").open("w", newline="") as f:
+        w = csv.DictWriter(f, COLUMNS)
+        w.writeheader()
+        w.writerows(rows)
+    (out / "learning-curve-confusion.json").write_text(json.dumps(confusions, indent=1))
+    plot(rows, out / "learning-curve.png")
+    print(f"wrote {out / 'learning-curve.csv'} and learning-curve.png")
+
+
+def plot(rows: list[dict], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(1, 3, figsize=(13, 3.8))
+    for capture, style in (("noise-free", "--"), ("default", "-")):
+        sel = [r for r in rows if r["capture"] == capture and r["policy"] == "oracle" and r["arch"] != "resnet18"]
+        if not sel:
+            continue
+        n = [r["people_per_room"] for r in sel]
+        for a, key in zip(ax, ("posture_accuracy", "posture3_accuracy", "error_cm")):
+            a.plot(n, [r[key] for r in sel], style, marker="o", label=f"oracle spot, {capture}")
+    top = max((r["people_per_room"] for r in rows), default=0)
+    for r in rows:
+        if r["people_per_room"] == top and (r["policy"] != "oracle" or r["arch"] == "resnet18"):
+            label = r["policy"] + (" (ResNet-18)" if r["arch"] == "resnet18" else "")
+            for a, key in zip(ax, ("posture_accuracy", "posture3_accuracy", "error_cm")):
+                a.scatter([top], [r[key]], marker="x")
+                a.annotate(label, (top, r[key]), fontsize=7)
+    for a, title in zip(ax, ("posture accuracy (6 classes), %", "upright/sitting/crouching, %",
+                             "localization error, cm")):
+        a.set_xscale("log")
+        a.set_xlabel("training people per room")
+        a.set_title(title, fontsize=10)
+    ax[0].axhline(100 / 6, color="gray", lw=0.5)
+    ax[0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,164 @@
+"""Seen rooms at scale: train on N people per room, score new people of the same rooms.
+
+The learning curve (``benchmarks/learning_curve.py``) runs this for several N, captures and spot
+policies. Per training room the static samples split by index k: ``k % 10 == 9`` test, ``k % 10 ==
+8`` validation, the rest the training pool, of which a run takes the first N. Indices are in
+generation order and postures are a random permutation per room, so every subset is
+posture-balanced in expectation; the test and validation people are the same for every N.
+
+Shapes: positions (N, 2) m in the region frame, posture indices (N,).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ..train.config import TrainConfig
+from ..train.imaging import form_images, photographs
+from ..train.loop import Trainer
+from ..train.scenes import SceneTensors
+from ..world.body import POSTURES
+
+GROUPS = {"standing": 0, "hands_90": 0, "hands_45": 0, "unknown": 0, "sitting": 1, "crouching": 2}
+"""Posture -> coarse group: 0 upright, 1 sitting, 2 crouching."""
+GROUP_OF = np.array([GROUPS[p] for p in POSTURES])
+"""Posture index -> group index."""
+
+
+@dataclass
+class RoomSplit:
+    """One training room's people: the pool to train on, validation and test."""
+
+    pool: SceneTensors
+    """Training candidates, in index order."""
+    val: SceneTensors
+    """Validation people (best-weight selection and early stopping)."""
+    test: SceneTensors
+    """Held-out people the results are reported on."""
+
+
+def split_room(s: SceneTensors, period: int = 10) -> RoomSplit:
+    """Static samples by index: k % period == period - 1 test, == period - 2 validation, others pool."""
+    k = torch.arange(s.num_samples)
+    static = s.trajectory[:, 0] < 0
+    test = static & (k % period == period - 1)
+    val = static & (k % period == period - 2)
+    pool = static & ~test & ~val
+    take = lambda m: s.subset(torch.nonzero(m).flatten())
+    return RoomSplit(take(pool), take(val), take(test))
+
+
+@dataclass
+class SeenResult:
+    """Scores of one run on the test people of its rooms."""
+
+    posture_accuracy: float
+    """Six-way accuracy, %."""
+    posture3_accuracy: float
+    """Upright / sitting / crouching accuracy, %."""
+    error_cm: float
+    """Mean localization error, cm."""
+    mean_answer_cm: float
+    """Error of always answering the training people's mean position, cm (the chance level)."""
+    confusion: list[list[int]]
+    """6 x 6 counts, rows true posture, columns predicted."""
+    spots: list[int]
+    """Each room's spot face (-1 for flash or ambient)."""
+    people_per_room: int
+    """Training people per room."""
+    steps: int
+    """Optimizer steps taken (early stopping may end before the budget)."""
+    seconds: float
+    """Wall time of training and scoring."""
+
+
+def score(tr: Trainer, rooms: list[RoomSplit], noise: bool, seed: int = 0, batch: int = 128) -> dict:
+    """Predictions of a trained run on its rooms' test people, each room under the run's spot."""
+    tr.net.eval()
+    gen = torch.Generator(device=tr.device).manual_seed(20_000 + seed)  # the same noise for every run
+    true, pred, err, spots = [], [], [], []
+    with torch.no_grad():
+        for s, room in zip(tr.scenes, rooms):
+            (y, mode, _), = tr.illuminations([s], train=False)
+            spots.append(int(y.argmax()) if y is not None else -1)
+            t = room.test.to(tr.device)
+            for a in range(0, t.num_samples, batch):
+                idx = torch.arange(a, min(a + batch, t.num_samples), device=tr.device)
+                img, free = form_images(t, idx, y, mode)
+                ph = photographs(img, free, tr.sensor, gen, noise, tr.cfg.net.background_subtract)
+                pos, logits = tr.net(ph.images, ph.background, ph.clipped)
+                true.append(t.posture[idx].cpu().numpy())
+                pred.append(logits.argmax(1).cpu().numpy())
+                err.append((pos - t.target[idx]).norm(dim=1).cpu().numpy())
+    true, pred, err = np.concatenate(true), np.concatenate(pred), np.concatenate(err)
+    conf = np.zeros((len(POSTURES), len(POSTURES)), int)
+    np.add.at(conf, (true, pred), 1)
+    return {"posture_accuracy": float(100 * np.mean(true == pred)),
+            "posture3_accuracy": float(100 * np.mean(GROUP_OF[true] == GROUP_OF[pred])),
+            "error_cm": float(100 * err.mean()), "confusion": conf.tolist(), "spots": spots}
+
+
+def mean_answer_cm(rooms: list[RoomSplit]) -> float:
+    """Error of answering the mean training position for every test person."""
+    mean = torch.cat([r.pool.target for r in rooms]).mean(0)
+    test = torch.cat([r.test.target for r in rooms])
+    return float(100 * (test - mean).norm(dim=1).mean())
+
+
+def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs: float,
+             progress: bool = False) -> SeenResult:
+    """Train ``cfg`` on the first ``n`` pool people of every room for about ``epochs`` passes, then score.
+
+    Resumable: a finished run's ``result.json`` is returned as is; an interrupted one resumes from
+    its checkpoint. Validation every epoch picks the best weights (patience from ``cfg``).
+    """
+    import time
+
+    out.mkdir(parents=True, exist_ok=True)
+    done = out / "result.json"
+    if done.exists():
+        return SeenResult(**json.loads(done.read_text()))
+    t0 = time.perf_counter()
+    train = [r.pool.subset(torch.arange(min(n, r.pool.num_samples))) for r in rooms]
+    per_epoch = max(1, sum(t.num_samples for t in train) // cfg.batch_size)
+    cfg = dataclasses.replace(cfg, steps=max(1, round(epochs * per_epoch)), eval_every=per_epoch,
+                              ckpt_every=per_epoch, log_every=per_epoch)
+    (out / "config.json").write_text(json.dumps({"train": cfg.to_dict(), "people_per_room": n,
+                                                 "epochs": epochs}, indent=1))
+    tr = Trainer(cfg, train, out, val_scenes=[r.val for r in rooms])
+    ckpt = out / "checkpoint.pt"
+    if ckpt.exists():
+        tr.load(ckpt)
+    from ..train.loop import _validation_pass
+
+    stop = cfg.patience > 0 and tr.bad_evals >= cfg.patience
+    while tr.step < tr.total_steps and not stop:
+        tr.train_step()
+        net_step = tr.step - cfg.spot_steps
+        if net_step > 0 and (net_step % cfg.eval_every == 0 or tr.step == tr.total_steps):
+            stop = _validation_pass(tr, out)
+            tr.save(ckpt)
+            if progress:
+                print(f"  {out.name}: step {tr.step}/{tr.total_steps} best val {tr.best_val:.3f}", flush=True)
+    steps = tr.step
+    if (out / "best.pt").exists():
+        tr.load(out / "best.pt")
+    res = score(tr, rooms, cfg.sensor_noise, cfg.seed)
+    result = SeenResult(**res, mean_answer_cm=mean_answer_cm(rooms), people_per_room=n, steps=steps,
+                        seconds=time.perf_counter() - t0)
+    tmp = done.with_name(".result.json.tmp")
+    tmp.write_text(json.dumps(dataclasses.asdict(result), indent=1))
+    os.replace(tmp, done)
+    for name in ("checkpoint.pt", "best.pt"):  # only the scores are kept: runs are many and cheap
+        (out / name).unlink(missing_ok=True)
+    return result
+
+
+__all__ = ["GROUPS", "RoomSplit", "SeenResult", "mean_answer_cm", "run_seen", "score", "split_room"]
