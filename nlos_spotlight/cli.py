@@ -60,7 +60,7 @@ def cmd_render(args: argparse.Namespace) -> None:
     result = r.render(y, person, components=comps)
     image = result.image
     if args.noise == "sensor":
-        cfg = SensorConfig.for_scene(scene)
+        cfg = SensorConfig.for_scene(scene, None if args.burst is None else {"burst_frames": args.burst})
         # the camera meters the person-free scene, whatever components are written
         metered = ("direct", "ambient") + (("interreflection",) if "interreflection" in comps else ())
         ref = r.render(y, None, components=metered).image
@@ -199,7 +199,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--components", help="comma-separated subset of direct,interreflection,ambient,nlos,"
                                         "nlos_ambient (default: all)")
     r.add_argument("--human", help="body mesh (PLY/OBJ, world coordinates) replacing the scene's person")
-    r.add_argument("--noise", choices=("none", "sensor"), default="none")
+    r.add_argument("--noise", choices=("none", "sensor"), default="none",
+                   help="'sensor': a capture by the scene's camera (average metering on the person-free frame, "
+                        "shot/read/quantization noise, clipping), written back in radiance units")
+    r.add_argument("--burst", type=int, help="frames averaged per capture with --noise sensor (default: the "
+                                            "scene's sensor setting, else 1)")
     r.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
     r.add_argument("--out", required=True, help="output .npy, float32 (height, width, 3)")
     r.add_argument("--pixel-samples", type=int, default=4, help="n x n sub-samples per pixel (per-scene terms)")
