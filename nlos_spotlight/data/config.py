@@ -25,6 +25,10 @@ class DatasetConfig:
     """Rooms in the test split (never seen in training)."""
     samples_per_scene: int = 6
     """Static-pose samples per room (postures balanced, positions uniform)."""
+    transport_samples_per_scene: int = -1
+    """People per room with full transport (samples 0..M-1); the rest are image samples of stored spots (-1: all)."""
+    stored_spots_top: int = 6
+    """Image samples: best candidates by NLOS SNR stored besides the adaptive, center and random policies' spots."""
     trajectories_per_test_scene: int = 1
     """Walking trajectories per test room, for tracking."""
     trajectory_frames: int = 12
@@ -47,6 +51,8 @@ class DatasetConfig:
     """Renderer: projector rays per candidate spot."""
     person_samples: int = 192
     """Renderer: area samples on the body."""
+    person_quadrature: str = "faces"
+    """Renderer: body sampling rule, 'faces' (per-face centroid rule, >= 1 sample a face) or 'mc' (render/person.py)."""
     families: list[str] = field(default_factory=list)
     """Room layout families to cycle through (empty: all)."""
 
@@ -119,3 +125,7 @@ def _validate(cfg: DatasetConfig, where: str) -> None:
         raise NlosError(f"{where}: absurd size (resolution {cfg.resolution}, {cfg.num_scenes} scenes)")
     if cfg.los_vertices < 8:
         raise NlosError(f"{where}: los_vertices must be at least 8")
+    if cfg.transport_samples_per_scene == 0 or cfg.transport_samples_per_scene < -1:
+        raise NlosError(f"{where}: transport_samples_per_scene must be -1 (all) or at least 1")
+    if cfg.stored_spots_top < 0:
+        raise NlosError(f"{where}: stored_spots_top must be at least 0")

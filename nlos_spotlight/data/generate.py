@@ -21,7 +21,7 @@ import torch
 
 from ..errors import NlosError
 from .config import DatasetConfig
-from .store import FORMAT, atomic_json, content_sha256, file_digest, remove_stale_temporaries, scene_id
+from .store import FORMAT, READABLE, atomic_json, content_sha256, file_digest, remove_stale_temporaries, scene_id
 
 
 @dataclass
@@ -65,6 +65,11 @@ def versions() -> dict[str, str]:
     return out
 
 
+FORMAT_1_VALUES = {"transport_samples_per_scene": -1, "stored_spots_top": 6}
+"""Config fields added with nlos-dataset/2, at the values that mean what a /1 dataset holds (its
+config.json lacks them): a run with those values may continue it; other missing fields differ."""
+
+
 def _check_config(out: Path, cfg: DatasetConfig) -> None:
     path = out / "config.json"
     if path.exists():
@@ -72,6 +77,7 @@ def _check_config(out: Path, cfg: DatasetConfig) -> None:
             old = json.loads(path.read_text())
         except json.JSONDecodeError:
             raise NlosError(f"{path}: corrupted (invalid JSON); remove it to start over") from None
+        old = {**{k: v for k, v in FORMAT_1_VALUES.items() if k not in old}, **old}
         if old != cfg.to_dict():
             diff = sorted(k for k in set(old) | set(cfg.to_dict()) if old.get(k) != cfg.to_dict().get(k))
             raise NlosError(f"{out} holds a dataset made with another config (differs in: {', '.join(diff)})")
@@ -86,8 +92,34 @@ def sample_count(cfg: DatasetConfig, split: str) -> int:
     return n
 
 
-def generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int] = (0, 1), progress: bool = True) -> dict:
-    """Build this shard's scenes; write the manifest if that completes the dataset. Returns the shard record."""
+def transport_count(cfg: DatasetConfig, split: str) -> int:
+    """How many of a room's samples (the first ones) store full transport; the rest are image samples."""
+    n = sample_count(cfg, split)
+    return n if cfg.transport_samples_per_scene < 0 else min(n, cfg.transport_samples_per_scene)
+
+
+GENERATE_THREADS = 1
+"""torch intra-op threads while generating. Parallelism comes from shards (one process each): the
+per-person tensors are small, and with the cores busy (other shards, other users) two threads per
+process made a person 0.2-12 s instead of 0.22 s (measured, 2 cores;
+benchmarks/generate_images_speed.py). One thread also makes the bytes independent of core count."""
+
+
+def generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int] = (0, 1), progress: bool = True,
+             threads: int = GENERATE_THREADS) -> dict:
+    """Build this shard's scenes; write the manifest if that completes the dataset. Returns the shard record.
+
+    ``threads``: torch threads while it runs (restored afterwards), see :data:`GENERATE_THREADS`.
+    """
+    before = torch.get_num_threads()
+    torch.set_num_threads(threads)
+    try:
+        return _generate(cfg, out, shard, progress)
+    finally:
+        torch.set_num_threads(before)
+
+
+def _generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int], progress: bool) -> dict:
     from ..console import QUIET, console
 
     out = Path(out)
@@ -129,7 +161,8 @@ def finalize(cfg: DatasetConfig, out: Path) -> dict | None:
         except json.JSONDecodeError:
             raise NlosError(f"{done}: corrupted (invalid JSON); delete it to rebuild that scene") from None
         digests.update({f"scenes/{p.id}/{k}": v for k, v in rec["digests"].items()})
-        splits[p.split].append({"id": p.id, "family": p.family, "seed": p.seed, "samples": rec["samples"]})
+        splits[p.split].append({"id": p.id, "family": p.family, "seed": p.seed, "samples": rec["samples"],
+                                "transport_samples": rec.get("transport_samples", rec["samples"])})
     manifest = {"format": FORMAT, "config": cfg.to_dict(), "seed": cfg.seed, "splits": splits,
                 "num_files": len(digests), "content_sha256": content_sha256(digests), "versions": versions()}
     atomic_json(out / "manifest.json", manifest)
@@ -145,8 +178,8 @@ def verify(out: Path) -> dict:
         raise NlosError(f"{out}: no manifest.json (dataset incomplete; rerun nlos generate)") from None
     except json.JSONDecodeError:
         raise NlosError(f"{out}/manifest.json: corrupted (invalid JSON)") from None
-    if manifest.get("format") != FORMAT:
-        raise NlosError(f"{out}: format {manifest.get('format')!r}, this reader supports {FORMAT!r}")
+    if manifest.get("format") not in READABLE:
+        raise NlosError(f"{out}: format {manifest.get('format')!r}, this reader supports {', '.join(READABLE)}")
     digests = {}
     for split in manifest["splits"].values():
         for s in split:

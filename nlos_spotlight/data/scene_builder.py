@@ -4,6 +4,13 @@ Besides the spot candidates, every scene is also rendered under the flash of Tan
 (:mod:`.flash`): a second :class:`Renderer` on a copy of the scene whose projector is a wide beam
 at the camera, aimed at its ``look_at``, with the projector's total flux. Its one "candidate"
 gives ``flash_direct`` (static.npz) and, per sample, ``flash_nlos``.
+
+Two sample kinds (docs/dataset-format.md). The first ``transport_samples_per_scene`` people of a
+room (all by default) store the full light transport (every candidate spot): the spot policies
+learn and are scored on those. Then the room's stored spots are chosen from them (``spots.json``:
+the best candidates by NLOS SNR and the fixed policies' spots), and every further person is an
+*image sample* (``images/<k>.npz``): only its light under those K spots (demo preset: about 10x
+smaller on disk and 4-7x faster to render), for training the NLOS network on many people.
 """
 
 from __future__ import annotations
@@ -14,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ..errors import NlosError
 from ..render.camera import camera_frame, pixel_rays
 from ..render.person import Person
 from ..render.surface import StaticSurfaces
@@ -22,7 +30,7 @@ from ..scene.format import TriMesh
 from ..scene.io import save_scene
 from .config import DatasetConfig
 from .flash import FLASH_SPOT_SAMPLES, flash_scene
-from .store import atomic_json, atomic_npz, file_digest
+from .store import atomic_json, atomic_npz, f16_encode, file_digest
 from .trajectories import walking_trajectory
 
 
@@ -60,9 +68,10 @@ class SceneBuilder:
         self.dir = out / "scenes" / plan.id
 
     def build(self, advance) -> None:
-        from .generate import sample_count
+        from .generate import sample_count, transport_count
 
         n = sample_count(self.cfg, self.plan.split)
+        m = transport_count(self.cfg, self.plan.split)
         if (self.dir / "done.json").exists():
             advance(n)
             return
@@ -85,14 +94,24 @@ class SceneBuilder:
         if not _readable(self.dir / "static.npz", "flash_direct"):
             self._write_static(renderer, flash, los, room.family)
         (self.dir / "samples").mkdir(exist_ok=True)
-        for k, spec in enumerate(self._specs(scene)):
+        specs = self._specs(scene)
+        floor_z = scene.hidden_region.floor_z
+        for k, spec in enumerate(specs[:m]):
             path = self.dir / "samples" / f"{k:05d}.npz"
             if not _readable(path, "flash_nlos"):
-                atomic_npz(path, **self._sample(renderer, flash, spec, scene.hidden_region.floor_z))
+                atomic_npz(path, **self._sample(renderer, flash, spec, floor_z))
             advance()
+        if m < n:
+            spots = self._stored_spots(len(los.faces))
+            (self.dir / "images").mkdir(exist_ok=True)
+            for k, spec in enumerate(specs[m:], start=m):
+                path = self.dir / "images" / f"{k:05d}.npz"
+                if not _readable(path, "nlos_spots"):
+                    atomic_npz(path, **self._image_sample(renderer, flash, spec, floor_z, spots))
+                advance()
         digests = {str(p.relative_to(self.dir)): file_digest(p)
                    for p in sorted(self.dir.rglob("*")) if p.is_file() and p.name != "done.json"}
-        atomic_json(self.dir / "done.json", {"samples": n, "digests": digests})
+        atomic_json(self.dir / "done.json", {"samples": n, "transport_samples": m, "digests": digests})
 
     def _room_config(self):
         from ..world.rooms import RoomConfig
@@ -133,27 +152,126 @@ class SceneBuilder:
                     specs.append({"params": params, "position": np.array([x, y]), "trajectory": j, "frame": f})
         return specs
 
-    def _sample(self, r: Renderer, flash: Renderer, spec: dict, floor_z: float) -> dict:
-        from ..world.body import POSTURES, posed_body
+    def _stored_spots(self, num_candidates: int) -> list[int]:
+        """The room's stored spots from ``spots.json``, chosen (and written) once the full-transport
+        samples exist; image samples left from a run without a readable record are deleted."""
+        path = self.dir / "spots.json"
+        rec = read_spots(path, num_candidates)
+        if rec is None:
+            for old in (self.dir / "images").glob("*.npz"):
+                old.unlink()
+            rec = choose_spots(self.cfg, self.plan, self.dir)
+            atomic_json(path, rec)
+        return rec["spots"]
+
+    def _person(self, spec: dict, floor_z: float):
+        from ..world.body import posed_body
 
         p = spec["params"]
         body = posed_body(p, target_faces=self.cfg.body_faces)
-        person = Person.from_mesh(body, p.albedo, self.cfg.person_samples)
-        t = np.array([spec["position"][0], spec["position"][1], floor_z])
-        f = r.transport_images(person, t)
-        u, v, err = low_rank(f, self.cfg.transport_rank)
-        # nlos_ambient does not depend on the emitter, and the flash renderer has the same camera
-        # receivers: one render gives both it and the flash's nlos through a single person -> pixel
-        # gather (the costly visibility pass) instead of two.
-        under_flash = flash.render(flash.spot_vector(0), person, translation=t, components=("nlos", "nlos_ambient"))
-        amb, flash_nlos = under_flash["nlos_ambient"], under_flash["nlos"]
-        return {"transport_u": u, "transport_v": v, "transport_error": np.float64(err),
-                "nlos_ambient": amb.float().numpy(), "flash_nlos": flash_nlos.float().numpy(),
-                "position": np.asarray(spec["position"], np.float64),
+        person = Person.from_mesh(body, p.albedo, self.cfg.person_samples, self.cfg.person_quadrature)
+        return body, person, np.array([spec["position"][0], spec["position"][1], floor_z])
+
+    @staticmethod
+    def _labels(spec: dict) -> dict:
+        from ..world.body import POSTURES
+
+        p = spec["params"]
+        return {"position": np.asarray(spec["position"], np.float64),
                 "posture": np.int64(POSTURES.index(p.posture)), "facing_deg": np.float64(p.facing_deg),
                 "height_m": np.float64(p.height_m), "albedo": np.asarray(p.albedo, np.float64),
-                "trajectory": np.int64(spec["trajectory"]), "frame": np.int64(spec["frame"]),
+                "trajectory": np.int64(spec["trajectory"]), "frame": np.int64(spec["frame"])}
+
+    def _sample(self, r: Renderer, flash: Renderer, spec: dict, floor_z: float) -> dict:
+        body, person, t = self._person(spec, floor_z)
+        # every candidate, the flash and nlos_ambient through one person -> pixel pass
+        f = r.transport_images(person, t, also=(flash,), nlos_ambient=True)
+        u, v, err = low_rank(f[:r.num_spots], self.cfg.transport_rank)
+        flash_nlos, amb = f[r.num_spots], f[r.num_spots + 1]
+        return {"transport_u": u, "transport_v": v, "transport_error": np.float64(err),
+                "nlos_ambient": amb.float().numpy(), "flash_nlos": flash_nlos.float().numpy(),
+                **self._labels(spec),
                 "body_vertices": (body.vertices + t).astype(np.float32), "body_faces": body.faces.astype(np.int32)}
+
+    def _image_sample(self, r: Renderer, flash: Renderer, spec: dict, floor_z: float, spots: list[int]) -> dict:
+        """The person's light under the K stored spots only (their columns of F, traced alone),
+        float16 with power-of-two scales (``store.f16_encode``); no body mesh."""
+        _, person, t = self._person(spec, floor_z)
+        # the K spots, the flash and nlos_ambient through one person -> pixel pass
+        f = r.transport_images(person, t, spots, also=(flash,), nlos_ambient=True).double().numpy()
+        k = len(spots)
+        out = {}
+        for name, a, per_spot in (("nlos_spots", f[:k], True), ("flash_nlos", f[k], False),
+                                  ("nlos_ambient", f[k + 1], False)):
+            out[name], out[f"{name}_scale"] = f16_encode(a, per_spot)
+        return {**out, **self._labels(spec)}
+
+
+RANDOM_POLICY_SEEDS = (0, 1, 2)
+"""Training seeds whose Random-policy spot a room stores for its image samples (``nlos evaluate
+--seeds 3`` trains seeds 0-2): the draw of ``train.loop.fixed_illuminations``, key [seed, i]."""
+
+STORED_POLICIES = ("adaptive", "center", "random")
+"""Fixed policies whose spots a room stores for its image samples, besides the top SNR ones."""
+
+
+def split_position(cfg: DatasetConfig, index: int) -> int:
+    """The scene's position in its split's list (what ``load_split`` returns, the trainer's i)."""
+    split = cfg.split_of(index)
+    return index - {"train": 0, "val": cfg.train_scenes, "test": cfg.train_scenes + cfg.val_scenes}[split]
+
+
+def choose_spots(cfg: DatasetConfig, plan, scene_dir: Path) -> dict:
+    """The stored spots of a room whose full-transport samples exist (``spots.json``'s record).
+
+    The ``stored_spots_top`` landed candidates of highest mean NLOS SNR over the full-transport
+    samples (``lighting.snr.candidate_snr``), and the spots of the fixed policies
+    :data:`STORED_POLICIES` as the trainer draws them (Random: one per :data:`RANDOM_POLICY_SEEDS`).
+    ``spots`` is their sorted union: slot k of an image sample holds candidate ``spots[k]``.
+    """
+    from ..lighting import POLICIES
+    from ..lighting.snr import candidate_snr
+    from ..train.scenes import load_scene_tensors
+
+    scene_dir = Path(scene_dir)
+    snr = np.asarray(candidate_snr(scene_dir), np.float64)
+    landed = np.asarray(np.load(scene_dir / "static.npz")["spot_landed"], bool)
+    order = [int(t) for t in np.argsort(-snr, kind="stable") if landed[t]]
+    top = order[:cfg.stored_spots_top]
+    s = load_scene_tensors(scene_dir, [], samples="transport")
+    i = split_position(cfg, plan.index)
+    policies: dict = {}
+    for name in STORED_POLICIES:
+        keys = [[seed, i] for seed in RANDOM_POLICY_SEEDS] if name == "random" else [[0, i]]
+        picks = []
+        for key in keys:
+            try:
+                ill = POLICIES[name](s, scene_dir, np.random.default_rng(key))
+            except NlosError:  # e.g. no landed candidate in front of the camera: nothing to store
+                ill = None
+            picks.append(int(ill.face) if ill is not None and ill.mode == "spot" else None)
+        policies[name] = {str(k[0]): p for k, p in zip(keys, picks)} if name == "random" else picks[0]
+    chosen = set(top) | {p for v in policies.values() for p in (v.values() if isinstance(v, dict) else [v])
+                         if p is not None}
+    if not chosen:
+        raise NlosError(f"{scene_dir}: no spot to store for image samples (no candidate lands)")
+    return {"spots": sorted(chosen), "snr_top": top, "snr_top_values": [float(snr[t]) for t in top],
+            "policies": policies, "num_candidates": int(len(landed)),
+            "random_key": "numpy default_rng([training seed, position of the room in its split])"}
+
+
+def read_spots(path: Path, num_candidates: int) -> dict | None:
+    """``spots.json`` if it exists and is well formed, else None."""
+    import json
+
+    try:
+        rec = json.loads(Path(path).read_text())
+        spots = rec["spots"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    ok = isinstance(spots, list) and spots and all(isinstance(t, int) and 0 <= t < num_candidates for t in spots) \
+        and spots == sorted(set(spots))
+    return rec if ok else None
 
 
 def _with(params, **changes):

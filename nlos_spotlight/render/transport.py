@@ -300,14 +300,24 @@ class Renderer:
         img = self._gather(person, pts, o, rays, front, back)
         return {c: img[..., 3 * i:3 * i + 3] for i, c in enumerate(want)}
 
-    def _person_radiosity(self, y, person: Person, pts, o, rays: SceneRays, per_spot: bool = False):
+    def _person_radiosity(self, y, person: Person, pts, o, rays: SceneRays, per_spot: bool = False,
+                          spots: torch.Tensor | None = None):
         """B (E y): outgoing radiance of each body sample on its front and back side.
 
-        Returns two (N, 3) tensors, or with ``per_spot`` two (N, 3 T) tensors holding one RGB triple
-        per candidate (the columns of B E, y ignored).
+        Returns two (N, 3) tensors, or with ``per_spot`` two (N, 3 K) tensors holding one RGB triple
+        per candidate (the columns of B E, y ignored): all T candidates, or only the K candidates
+        ``spots`` (in that order), whose spot samples alone are then traced.
         """
-        idx = torch.arange(len(self.spot_owner), device=self.device) if per_spot else self._active(y)
-        groups = self.num_spots if per_spot else 1
+        if per_spot and spots is not None:
+            slot = torch.full((self.num_spots,), -1, dtype=torch.long, device=self.device)
+            slot[spots] = torch.arange(len(spots), device=self.device)
+            owner = slot[self.spot_owner]  # (S,) the spot sample's column, -1 for candidates not asked for
+            idx = torch.nonzero(owner >= 0).flatten()
+            groups = len(spots)
+        else:
+            owner = self.spot_owner
+            idx = torch.arange(len(self.spot_owner), device=self.device) if per_spot else self._active(y)
+            groups = self.num_spots if per_spot else 1
         lf = torch.zeros(groups, len(o), 3, device=self.device, dtype=self.dtype)
         lb = torch.zeros_like(lf)
         for a in range(0, len(idx), self.settings.chunk):
@@ -322,28 +332,54 @@ class Renderer:
                      src["kd"].unsqueeze(1), src["ks"].unsqueeze(1), src["alpha"].unsqueeze(1))
             e = f * (geo.g * vis).unsqueeze(-1) * w.unsqueeze(1)
             side = (geo.cos_b > 0).to(self.dtype).unsqueeze(-1)
-            group = self.spot_owner[ii] if per_spot else torch.zeros_like(ii)
+            group = owner[ii] if per_spot else torch.zeros_like(ii)
             lf = lf.index_add(0, group, e * side)
             lb = lb.index_add(0, group, e * (1 - side))
         scale = (pts["albedo"] / math.pi).unsqueeze(1)  # (N, 1, 3)
         lf, lb = lf.transpose(0, 1) * scale, lb.transpose(0, 1) * scale  # (N, groups, 3)
         return lf.reshape(len(o), -1), lb.reshape(len(o), -1)
 
-    def transport_images(self, person: Person, translation=None) -> torch.Tensor:
+    def transport_images(self, person: Person, translation=None, spots=None, also: tuple = (),
+                         nlos_ambient: bool = False) -> torch.Tensor:
         """The ``nlos`` image of every candidate spot for one body placement, (T, H, W, 3).
 
         These are the columns of the light transport matrix F (paper Eq. (1)): for any spot vector
         y, ``nlos(y) = einsum('thwc,t->hwc', F, y)``. The person -> pixel transport A is shared by
-        all candidates, so all T images cost little more than one.
+        all candidates, so all T images cost little more than one. ``spots`` (K,) candidate
+        indices: only those columns, (K, H, W, 3), tracing only their projector rays.
+
+        ``also``: renderers of the same geometry and camera under other emitters (e.g. the flash),
+        whose every candidate's column follows this renderer's; ``nlos_ambient``: the
+        ``nlos_ambient`` image last. All of them share the one person -> pixel pass (the costly
+        visibility): (K + sum of their T [+ 1], H, W, 3).
         """
+        for other in also:
+            if other.shape != self.shape or not torch.equal(other.recv_t.pts["pos"], self.recv_t.pts["pos"]):
+                raise ValueError("transport_images: 'also' renderers must share this one's camera receivers")
+        if spots is not None:
+            spots = torch.as_tensor(np.asarray(spots, np.int64), device=self.device)
+            if spots.dim() != 1 or len(spots) == 0 or int(spots.min()) < 0 or int(spots.max()) >= self.num_spots \
+                    or len(torch.unique(spots)) != len(spots):
+                raise ValueError(f"spots: expected distinct candidate indices in 0..{self.num_spots - 1}")
         t = as_translation(translation, 1, self.device, self.dtype)[0]
         pts = {k: self._t(getattr(person, k)) for k in ("pos", "normal", "area", "albedo")}
         rays = SceneRays(self.static.engine, RayEngine(person.translated_mesh(t.detach().cpu().numpy()).vertices,
                                                        person.mesh.faces))
         o = pts["pos"] + t
-        lf, lb = self._person_radiosity(None, person, pts, o, rays, per_spot=True)
-        img = self._gather(person, pts, o, rays, lf, lb)  # (H, W, 3 T)
-        return img.reshape(*self.shape, self.num_spots, 3).permute(2, 0, 1, 3)
+        lf, lb = self._person_radiosity(None, person, pts, o, rays, per_spot=True, spots=spots)
+        fronts, backs = [lf], [lb]
+        for other in also:
+            f, b = other._person_radiosity(None, person, pts, o, rays, per_spot=True)
+            fronts.append(f)
+            backs.append(b)
+        if nlos_ambient:
+            amb = self.scene.ambient
+            own = (pts["albedo"] - 1) * self._t(amb.hidden_radiance if amb is not None else np.zeros(3))
+            fronts.append(own)
+            backs.append(own)
+        lf, lb = torch.cat(fronts, dim=1), torch.cat(backs, dim=1)
+        img = self._gather(person, pts, o, rays, lf, lb)  # (H, W, 3 C)
+        return img.reshape(*self.shape, lf.shape[1] // 3, 3).permute(2, 0, 1, 3)
 
     def _gather(self, person: Person, pts, o, rays: SceneRays, front, back) -> torch.Tensor:
         """A: radiance (N, C) leaving body samples (by side) -> pixel means (H, W, C)."""

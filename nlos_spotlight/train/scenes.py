@@ -1,4 +1,12 @@
-"""A dataset split in memory as tensors: per scene the IEN graph and static images, per sample the transport."""
+"""A dataset split in memory as tensors: per scene the IEN graph and static images, per sample the transport.
+
+Both sample kinds of a room (docs/dataset-format.md) stack into the same factors u (N, T, R),
+v (N, R, H, W, 3): a full-transport sample is its stored factorization (rank r), an image sample
+is u = the one-hot (T, K) map from stored candidate ``spots[k]`` to slot k and v = its K images,
+so ``form_images`` gives its exact image for any y on the stored spots; R = max(r, K), the
+shorter factors zero-padded (the einsum sums over R). ``stored`` and ``transport`` say which
+spots and samples that is.
+"""
 
 from __future__ import annotations
 
@@ -56,6 +64,11 @@ class SceneTensors:
     """(N, H, W, 3) the person's light under the flash, else None."""
     scene_dir: str = ""
     """Where the scene lives on disk ('' for scenes built in memory)."""
+    stored: torch.Tensor | None = None
+    """(T,) bool: the candidates whose light the image samples hold (its stored spots; all True for
+    a room loaded without image samples); None (scenes built in memory): all."""
+    transport: torch.Tensor | None = None
+    """(N,) bool: the sample stores full transport (False: an image sample); None: all full."""
 
     def to(self, device) -> "SceneTensors":
         move = lambda v: v.to(device) if isinstance(v, torch.Tensor) else v
@@ -71,8 +84,16 @@ class SceneTensors:
         return SceneTensors(**{k: take(k, getattr(self, k)) for k in self.__dataclass_fields__})
 
 
-PER_SAMPLE = ("u", "v", "nlos_ambient", "target", "posture", "trajectory", "flash_nlos")
+PER_SAMPLE = ("u", "v", "nlos_ambient", "target", "posture", "trajectory", "flash_nlos", "transport")
 """SceneTensors fields indexed by sample (the rest describe the room)."""
+
+
+def transport_samples(s: SceneTensors) -> SceneTensors:
+    """Room ``s`` with only its full-transport samples (the images of every candidate spot: what
+    the spot policy / IEN trains and is scored on); ``s`` itself when it has no image samples."""
+    if s.transport is None or bool(s.transport.all()):
+        return s
+    return s.subset(torch.nonzero(s.transport).flatten())
 
 
 def holdout_mask(s: SceneTensors, every: int) -> torch.Tensor:
@@ -128,13 +149,84 @@ def graph_inputs(mesh: TriMesh, camera_to_world: np.ndarray, features: list[str]
     return x, torch.as_tensor(np.asarray(graph.edge_index), dtype=torch.long)
 
 
-def load_scene_tensors(scene_dir: Path, features: list[str]) -> SceneTensors:
+SAMPLE_KINDS = ("all", "transport", "images")
+
+
+def stored_spots(scene_dir: Path) -> list[int] | None:
+    """The candidates a room's image samples hold, slot order (``spots.json``); None without one."""
+    path = Path(scene_dir) / "spots.json"
+    if not path.exists():
+        return None
+    try:
+        spots = json.loads(path.read_text())["spots"]
+        return [int(t) for t in spots]
+    except (OSError, KeyError, TypeError, ValueError, json.JSONDecodeError):
+        raise NlosError(f"{path}: corrupted (no readable 'spots' list)") from None
+
+
+_LABELS = ("position", "posture", "trajectory", "frame")
+
+
+def _read_sample(path: Path, image: bool) -> dict:
+    """The arrays the loader needs from one sample file, read whole and closed (a room may hold
+    thousands: open NpzFiles would exhaust file handles); float16 images decoded to float32."""
+    from ..data.store import f16_decode
+
+    with np.load(path) as z:
+        out = {k: z[k] for k in _LABELS}
+        for k in ("nlos_ambient", "flash_nlos") + (("nlos_spots",) if image else ()):
+            if k in z.files:
+                out[k] = f16_decode(z, k)
+        if not image:
+            out["transport_u"], out["transport_v"] = z["transport_u"], z["transport_v"]
+    return out
+
+
+def _factors(full: list[dict], images: list[dict], spots: list[int], t: int) -> tuple[np.ndarray, np.ndarray]:
+    """u (N, T, R), v (N, R, H, W, 3) float32 of full-transport samples then image samples."""
+    r = max([z["transport_u"].shape[1] for z in full] + ([len(spots)] if images else []), default=0)
+    shape = (full[0]["transport_v"] if full else images[0]["nlos_spots"]).shape[1:] if full or images else (0, 0, 3)
+    u = np.zeros((len(full) + len(images), t, r), np.float32)
+    v = np.zeros((len(full) + len(images), r, *shape), np.float32)
+    for i, z in enumerate(full):
+        zu = z["transport_u"]
+        u[i, :, :zu.shape[1]] = zu
+        v[i, :zu.shape[1]] = z["transport_v"]
+    for i, z in enumerate(images, start=len(full)):
+        u[i, spots, np.arange(len(spots))] = 1.0
+        v[i, :len(spots)] = z["nlos_spots"]
+    return u, v
+
+
+def load_scene_tensors(scene_dir: Path, features: list[str], samples: str = "all") -> SceneTensors:
+    """One stored room; ``samples``: 'all' (full-transport samples, then image samples, in sample
+    order), 'transport' (only full-transport ones) or 'images' (only image samples, rank K).
+
+    'all' pads image samples to the full-transport rank r: with many people per room, 'images'
+    holds the same images in K / r of the memory."""
+    if samples not in SAMPLE_KINDS:
+        raise NlosError(f"samples: expected one of {', '.join(SAMPLE_KINDS)}, got {samples!r}")
+    scene_dir = Path(scene_dir)
     try:
         st = np.load(scene_dir / "static.npz")
-        files = sorted((scene_dir / "samples").glob("*.npz"))
-        zs = [np.load(f) for f in files]
+        full = [_read_sample(f, False) for f in sorted((scene_dir / "samples").glob("*.npz"))] \
+            if samples != "images" else []
+        images = [_read_sample(f, True) for f in sorted((scene_dir / "images").glob("*.npz"))] \
+            if samples != "transport" else []
     except Exception as exc:  # np.load raises several types on torn files
         raise NlosError(f"{scene_dir}: corrupted dataset file ({type(exc).__name__})") from None
+    num_t = len(st["los_faces"])
+    stored = np.ones(num_t, bool)
+    spots = stored_spots(scene_dir) if images else []
+    if images:
+        if spots is None:
+            raise NlosError(f"{scene_dir}: image samples without spots.json (regenerate the scene)")
+        if any(not 0 <= t < num_t for t in spots) or any(z["nlos_spots"].shape[0] != len(spots) for z in images):
+            raise NlosError(f"{scene_dir}: image samples do not match spots.json (regenerate the scene)")
+        stored[:] = False
+        stored[spots] = True
+    u, v = _factors(full, images, spots, num_t)
+    zs = full + images
     pose = st["camera_to_world"]
     x, edges = graph_inputs(TriMesh(st["los_vertices"], st["los_faces"]), pose, features)
     fwd = -pose[:2, 2]
@@ -142,19 +234,21 @@ def load_scene_tensors(scene_dir: Path, features: list[str]) -> SceneTensors:
     cam = pose[:2, 3]
     origin = region_center(scene_dir)
     f32 = lambda a: torch.as_tensor(np.asarray(a), dtype=torch.float32)
+    has_flash = bool(zs) and all("flash_nlos" in z for z in zs)
     return SceneTensors(
         x=x, edge_index=edges,
         faces=torch.as_tensor(st["los_faces"], dtype=torch.long), landed=torch.as_tensor(st["spot_landed"]),
         direct=f32(st["direct"]), ambient=f32(st["ambient"]),
-        u=f32(np.stack([z["transport_u"] for z in zs])), v=f32(np.stack([z["transport_v"] for z in zs])),
+        u=torch.from_numpy(u), v=torch.from_numpy(v),
         nlos_ambient=f32(np.stack([z["nlos_ambient"] for z in zs])),
         target=f32(ground_frame(np.stack([z["position"] for z in zs]), origin, fwd)),
         posture=torch.as_tensor([int(z["posture"]) for z in zs]),
         trajectory=torch.as_tensor([[int(z["trajectory"]), int(z["frame"])] for z in zs]),
         camera_xy=f32(cam), forward_xy=f32(fwd), origin_xy=f32(origin),
         flash_direct=f32(st["flash_direct"]) if "flash_direct" in st.files else None,
-        flash_nlos=f32(np.stack([z["flash_nlos"] for z in zs])) if zs and "flash_nlos" in zs[0].files else None,
-        scene_dir=str(scene_dir))
+        flash_nlos=f32(np.stack([z["flash_nlos"] for z in zs])) if has_flash else None,
+        scene_dir=str(scene_dir), stored=torch.from_numpy(stored),
+        transport=torch.as_tensor([True] * len(full) + [False] * len(images), dtype=torch.bool))
 
 
 def split_ids(data_dir: str | Path, split: str) -> list[str]:
@@ -173,7 +267,9 @@ def split_ids(data_dir: str | Path, split: str) -> list[str]:
 
 
 def load_split(data_dir: str | Path, split: str, features: list[str],
-               keep: Callable[[SceneTensors], SceneTensors] | None = None) -> list[SceneTensors]:
-    """Every scene of a split; ``keep`` (e.g. a sample subset) is applied as each loads, to bound memory."""
+               keep: Callable[[SceneTensors], SceneTensors] | None = None, samples: str = "all") -> list[SceneTensors]:
+    """Every scene of a split; ``keep`` (e.g. a sample subset) is applied as each loads, to bound memory;
+    ``samples``: which sample kinds (:func:`load_scene_tensors`)."""
     keep = keep or (lambda s: s)
-    return [keep(load_scene_tensors(Path(data_dir) / "scenes" / sid, features)) for sid in split_ids(data_dir, split)]
+    return [keep(load_scene_tensors(Path(data_dir) / "scenes" / sid, features, samples))
+            for sid in split_ids(data_dir, split)]

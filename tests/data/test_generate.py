@@ -37,7 +37,7 @@ def reference(tmp_path_factory):
 
 def test_complete_and_verifiable(reference):
     out, manifest = reference
-    assert manifest["format"] == "nlos-dataset/1" and manifest["config"]["seed"] == 3
+    assert manifest["format"] == "nlos-dataset/2" and manifest["config"]["seed"] == 3
     assert verify(out)["content_sha256"] == manifest["content_sha256"]
     ids = {s["id"] for split in manifest["splits"].values() for s in split}
     assert len(ids) == 3 and all(i.startswith(("train", "test")) for i in ids)
