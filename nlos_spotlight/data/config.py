@@ -31,6 +31,8 @@ class DatasetConfig:
     """Image samples: best candidates by NLOS SNR stored besides the adaptive, center and random policies' spots."""
     trajectories_per_test_scene: int = 1
     """Walking trajectories per test room, for tracking."""
+    trajectories_per_train_scene: int = 0
+    """Walking trajectories per training room, for tracking in seen rooms (always held out of training)."""
     trajectory_frames: int = 12
     """Frames per trajectory."""
     frame_rate_hz: float = 5.0
@@ -72,12 +74,15 @@ class DatasetConfig:
 PRESETS = {
     "tiny": DatasetConfig(),
     "demo": DatasetConfig(name="demo", train_scenes=10, val_scenes=0, test_scenes=3, samples_per_scene=24,
-                          trajectories_per_test_scene=1, trajectory_frames=20, resolution=32, los_vertices=200),
+                          trajectories_per_test_scene=1, trajectories_per_train_scene=1, trajectory_frames=20,
+                          resolution=32, los_vertices=200),
     "small": DatasetConfig(name="small", train_scenes=16, val_scenes=4, test_scenes=6, samples_per_scene=36,
-                           trajectories_per_test_scene=2, trajectory_frames=30, resolution=32, los_vertices=300,
+                           trajectories_per_test_scene=2, trajectories_per_train_scene=1, trajectory_frames=30,
+                           resolution=32, los_vertices=300,
                            person_samples=256),
     "paper": DatasetConfig(name="paper", train_scenes=300, val_scenes=30, test_scenes=60, samples_per_scene=120,
-                           trajectories_per_test_scene=4, trajectory_frames=60, resolution=64, los_vertices=800,
+                           trajectories_per_test_scene=4, trajectories_per_train_scene=1, trajectory_frames=60,
+                           resolution=64, los_vertices=800,
                            transport_rank=96, pixel_samples=4, transport_pixel_samples=2, spot_samples=32,
                            person_samples=512),
 }
@@ -117,7 +122,9 @@ def load_config(spec: str) -> DatasetConfig:
 
 
 def _validate(cfg: DatasetConfig, where: str) -> None:
-    for k in ("train_scenes", "test_scenes", "samples_per_scene", "resolution", "los_vertices", "spot_samples",
+    if cfg.test_scenes < 0 or cfg.val_scenes < 0:
+        raise NlosError(f"{where}: val_scenes and test_scenes must be at least 0")
+    for k in ("train_scenes", "samples_per_scene", "resolution", "los_vertices", "spot_samples",
               "person_samples", "pixel_samples", "transport_pixel_samples", "body_faces"):
         if getattr(cfg, k) < 1:
             raise NlosError(f"{where}: {k} must be at least 1")

@@ -65,7 +65,7 @@ def versions() -> dict[str, str]:
     return out
 
 
-FORMAT_1_VALUES = {"transport_samples_per_scene": -1, "stored_spots_top": 6}
+FORMAT_1_VALUES = {"transport_samples_per_scene": -1, "stored_spots_top": 6, "trajectories_per_train_scene": 0}
 """Config fields added with nlos-dataset/2, at the values that mean what a /1 dataset holds (its
 config.json lacks them): a run with those values may continue it; other missing fields differ."""
 
@@ -86,10 +86,12 @@ def _check_config(out: Path, cfg: DatasetConfig) -> None:
 
 
 def sample_count(cfg: DatasetConfig, split: str) -> int:
-    n = cfg.samples_per_scene
-    if split == "test":
-        n += cfg.trajectories_per_test_scene * cfg.trajectory_frames
-    return n
+    return cfg.samples_per_scene + trajectory_count(cfg, split) * cfg.trajectory_frames
+
+
+def trajectory_count(cfg: DatasetConfig, split: str) -> int:
+    """Walking trajectories per room of ``split`` (validation rooms have none)."""
+    return {"test": cfg.trajectories_per_test_scene, "train": cfg.trajectories_per_train_scene}.get(split, 0)
 
 
 def transport_count(cfg: DatasetConfig, split: str) -> int:

@@ -140,9 +140,12 @@ class SceneBuilder:
         pos = person_positions(scene, rng, m)
         specs = [{"params": sample_body_params(rng, POSTURES[p]), "position": pos[k], "trajectory": -1, "frame": -1}
                  for k, p in enumerate(postures)]
-        if self.plan.split == "test" and self.cfg.trajectories_per_test_scene > 0:
+        from .generate import trajectory_count
+
+        walks = trajectory_count(self.cfg, self.plan.split)
+        if walks > 0:
             valid = person_positions(scene, rng, 2000)
-            for j in range(self.cfg.trajectories_per_test_scene):
+            for j in range(walks):
                 hr = scene.hidden_region
                 path = walking_trajectory(rng, valid, self.cfg.trajectory_frames, self.cfg.frame_rate_hz,
                                           bounds=(np.asarray(hr.min), np.asarray(hr.max)))

@@ -69,11 +69,24 @@ def write_summary(ev: Evaluation, out: Path) -> None:
 
 
 def tracks(ev: Evaluation, limit: int = 3) -> list[dict]:
+    """Fig. 5 panels: walks of held-out people in the training rooms (seen rooms, where the networks
+    learn) first, then walks in the unseen test rooms."""
+    out = []
+    for preds, where in ((ev.seen.get("ours", {}), "seen room"), (ev.preds.get("ours", {}), "new room")):
+        if ev.seeds and ev.seeds[0] in preds:
+            out += _tracks_of(preds[ev.seeds[0]], where, limit - len(out))
+        if len(out) >= limit:
+            break
+    return out
+
+
+def _tracks_of(p, where: str, limit: int) -> list[dict]:
     from .tracking import smooth_trajectory
 
-    p = ev.preds["ours"][ev.seeds[0]]
     a = p.arrays()
     out = []
+    if limit <= 0 or not len(p.scene):
+        return out
     for sid in dict.fromkeys(p.scene):
         sel = np.array([s == sid for s in p.scene])
         for tid in sorted(set(a["trajectory"][sel, 0]) - {-1}):
@@ -84,7 +97,7 @@ def tracks(ev: Evaluation, limit: int = 3) -> list[dict]:
             if window < 5:
                 continue
             out.append({"true": a["true_xy"][k], "raw": raw, "smooth": smooth_trajectory(raw, window, 2),
-                        "title": f"{sid}, walk {tid} ({len(k)} frames)"})
+                        "title": f"{sid} ({where}), walk {tid} ({len(k)} frames)"})
             if len(out) == limit:
                 return out
     return out

@@ -97,7 +97,8 @@ def transport_samples(s: SceneTensors) -> SceneTensors:
 
 
 def holdout_mask(s: SceneTensors, every: int) -> torch.Tensor:
-    """(N,) bool: the static samples k with k % every == every - 1, held out of training (seen-rooms test).
+    """(N,) bool: the static samples k with k % every == every - 1 and every walking-trajectory frame,
+    held out of training (the seen-rooms test and its tracking).
 
     Postures are a random permutation per room (``data.scene_builder``), so the held-out samples
     are a posture-mixed sample of every training room; ``every`` 0 holds out nothing.
@@ -105,14 +106,14 @@ def holdout_mask(s: SceneTensors, every: int) -> torch.Tensor:
     k = torch.arange(s.num_samples, device=s.posture.device)
     static = s.trajectory[:, 0] < 0
     if every <= 0:
-        return torch.zeros_like(static)
-    return static & (k % every == every - 1)
+        return ~static
+    return (static & (k % every == every - 1)) | ~static
 
 
 def room_samples(s: SceneTensors, every: int, held: bool) -> SceneTensors:
     """Room ``s`` with only the samples a run with ``holdout_every`` = ``every`` trains on, or with
-    ``held`` only those it holds out (``every`` 0: all samples are trained on, ``s`` itself)."""
-    if every <= 0 and not held:
+    ``held`` only those it holds out (``every`` 0: all static samples are trained on)."""
+    if every <= 0 and not held and bool((s.trajectory[:, 0] < 0).all()):
         return s
     mask = holdout_mask(s, every)
     return s.subset(torch.nonzero(mask if held else ~mask).flatten())

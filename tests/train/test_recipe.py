@@ -82,3 +82,17 @@ def test_cosine_schedule_decays_to_one_percent():
     tr.step = 10
     tr.set_learning_rate()
     assert tr.opt.param_groups[-1]["lr"] == pytest.approx(1e-5)
+
+
+def test_walks_in_training_rooms_are_held_out_of_training():
+    """A training room's walking-trajectory frames are for tracking in seen rooms: never trained on."""
+    from nlos_spotlight.train.scenes import holdout_mask, room_samples
+
+    room = toy_scene(n=20)
+    room.trajectory[15:] = torch.tensor([[0, f] for f in range(5)])
+    for every in (0, 6):
+        held = holdout_mask(room, every)
+        assert held[15:].all()
+        trained = room_samples(room, every, held=False)
+        assert bool((trained.trajectory[:, 0] < 0).all())
+        assert trained.num_samples == 15 - (2 if every == 6 else 0)  # k = 5, 11 held out with every = 6
