@@ -31,7 +31,7 @@ import torch
 from nlos_spotlight.evaluate.seen import run_seen, split_room
 from nlos_spotlight.models.nlos_net import NLOSNetConfig
 from nlos_spotlight.train.config import TrainConfig
-from nlos_spotlight.train.scenes import load_split
+from nlos_spotlight.train.scenes import load_scene_tensors, split_ids
 
 COLUMNS = ["protocol", "capture", "policy", "people_per_room", "posture_accuracy", "posture3_accuracy", "error_cm",
            "crb_cm", "seeds", "arch", "mean_answer_cm", "steps", "seconds"]
@@ -45,8 +45,8 @@ def base_config(args, seed: int, backbone: str) -> TrainConfig:
 
 def plan(args) -> list[dict]:
     sizes = [int(v) for v in args.sizes.split(",")]
-    runs = [dict(capture=c, policy="oracle", n=n, backbone=args.backbone) for c in ("noise-free", "default")
-            for n in sizes]
+    runs = [dict(capture=c, policy="oracle", n=n, backbone=args.backbone) for n in sizes
+            for c in ("noise-free", "default")]
     runs += [dict(capture="default", policy=p, n=sizes[-1], backbone=args.backbone)
              for p in args.policies.split(",") if p]
     if args.resnet18:
@@ -64,6 +64,17 @@ def run_one(args, rooms, spec: dict, seed: int):
     key = f"{spec['capture']}-{spec['policy']}-{spec['n']}-{spec['backbone']}-s{seed}"
     epochs = args.epochs * (args.resnet18_epoch_scale if spec["backbone"] == "resnet18" else 1.0)
     return run_seen(cfg, rooms, spec["n"], Path(args.runs) / key, epochs, progress=not args.quiet)
+
+
+def load_rooms(data: Path) -> list:
+    """The training rooms' image samples; a dataset still being generated (no manifest yet) gives the
+    rooms whose stored spots exist, with the people written so far (a prefix in index order)."""
+    if (data / "manifest.json").exists():
+        ids = split_ids(data, "train")
+    else:
+        ids = sorted(p.name for p in (data / "scenes").glob("train-*") if (p / "spots.json").exists())
+        print(f"{data}: unfinished dataset, using {len(ids)} rooms as generated so far", flush=True)
+    return [load_scene_tensors(data / "scenes" / sid, ["normals"], samples="images") for sid in ids]
 
 
 def main() -> None:
@@ -87,12 +98,14 @@ def main() -> None:
     ap.add_argument("--quiet", action="store_true")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
-    rooms = [split_room(s) for s in load_split(args.data, "train", ["normals"])]
+    rooms = [split_room(s) for s in load_rooms(Path(args.data))]
     print(f"{len(rooms)} rooms; pool/val/test people per room: "
           + ", ".join(f"{r.pool.num_samples}/{r.val.num_samples}/{r.test.num_samples}" for r in rooms), flush=True)
     crb = json.loads(Path(args.crb).read_text()) if args.crb else {}
     rows, confusions = [], {}
     for spec in plan(args):
+        if spec["n"] > min(r.pool.num_samples for r in rooms) and not (Path(args.data) / "manifest.json").exists():
+            rooms = [split_room(s) for s in load_rooms(Path(args.data))]  # still being generated: reload
         if spec["n"] > min(r.pool.num_samples for r in rooms):
             print(f"skip {spec}: the rooms hold fewer pool people", flush=True)
             continue

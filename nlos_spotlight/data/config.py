@@ -51,7 +51,7 @@ class DatasetConfig:
     """Renderer: n x n sub-samples per pixel for the person terms."""
     spot_samples: int = 16
     """Renderer: projector rays per candidate spot."""
-    person_samples: int = 192
+    person_samples: int = 4000
     """Renderer: area samples on the body."""
     person_quadrature: str = "faces"
     """Renderer: body sampling rule, 'faces' (per-face centroid rule, >= 1 sample a face) or 'mc' (render/person.py)."""
@@ -79,12 +79,12 @@ PRESETS = {
     "small": DatasetConfig(name="small", train_scenes=16, val_scenes=4, test_scenes=6, samples_per_scene=36,
                            trajectories_per_test_scene=2, trajectories_per_train_scene=1, trajectory_frames=30,
                            resolution=32, los_vertices=300,
-                           person_samples=256),
+                           person_samples=4000),
     "paper": DatasetConfig(name="paper", train_scenes=300, val_scenes=30, test_scenes=60, samples_per_scene=120,
                            trajectories_per_test_scene=4, trajectories_per_train_scene=1, trajectory_frames=60,
                            resolution=64, los_vertices=800,
                            transport_rank=96, pixel_samples=4, transport_pixel_samples=2, spot_samples=32,
-                           person_samples=512),
+                           person_samples=4000),
 }
 
 

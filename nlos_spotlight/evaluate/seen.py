@@ -2,7 +2,7 @@
 
 The learning curve (``benchmarks/learning_curve.py``) runs this for several N, captures and spot
 policies. Per training room the static samples split by index k: ``k % 10 == 9`` test, ``k % 10 ==
-8`` validation, the rest the training pool, of which a run takes the first N. Indices are in
+8`` validation (the first 100 of each), the rest the training pool, of which a run takes the first N. Indices are in
 generation order and postures are a random permutation per room, so every subset is
 posture-balanced in expectation; the test and validation people are the same for every N.
 
@@ -44,13 +44,16 @@ class RoomSplit:
     """Held-out people the results are reported on."""
 
 
-def split_room(s: SceneTensors, period: int = 10) -> RoomSplit:
-    """Static samples by index: k % period == period - 1 test, == period - 2 validation, others pool."""
+def split_room(s: SceneTensors, period: int = 10, max_eval: int = 100) -> RoomSplit:
+    """Static samples by index: k % period == period - 1 test, == period - 2 validation (the first
+    ``max_eval`` of each, so a room still being generated keeps the same test people as it grows),
+    the other residues the training pool in index order."""
     k = torch.arange(s.num_samples)
     static = s.trajectory[:, 0] < 0
-    test = static & (k % period == period - 1)
-    val = static & (k % period == period - 2)
-    pool = static & ~test & ~val
+    first = lambda m: m & (torch.cumsum(m.long(), 0) <= max_eval)
+    test = first(static & (k % period == period - 1))
+    val = first(static & (k % period == period - 2))
+    pool = static & (k % period < period - 2)
     take = lambda m: s.subset(torch.nonzero(m).flatten())
     return RoomSplit(take(pool), take(val), take(test))
 
@@ -77,6 +80,8 @@ class SeenResult:
     """Optimizer steps taken (early stopping may end before the budget)."""
     seconds: float
     """Wall time of training and scoring."""
+    unstored_choices: int = 0
+    """IEN runs on image samples: rooms where the IEN's first choice was not a stored spot."""
 
 
 def score(tr: Trainer, rooms: list[RoomSplit], noise: bool, seed: int = 0, batch: int = 128) -> dict:
@@ -152,7 +157,7 @@ def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs
         tr.load(out / "best.pt")
     res = score(tr, rooms, cfg.sensor_noise, cfg.seed)
     result = SeenResult(**res, mean_answer_cm=mean_answer_cm(rooms), people_per_room=n, steps=steps,
-                        seconds=time.perf_counter() - t0)
+                        seconds=time.perf_counter() - t0, unstored_choices=getattr(tr, "unstored_choices", 0))
     tmp = done.with_name(".result.json.tmp")
     tmp.write_text(json.dumps(dataclasses.asdict(result), indent=1))
     os.replace(tmp, done)

@@ -40,6 +40,9 @@ class NLOSNetConfig:
     """Append the pixel's (x, y) in [-1, 1] as two input channels (CoordConv, Liu et al. NeurIPS 2018)."""
     backbone: str = "resnet18"
     """Feature extractor (``models.resnet.BACKBONES``): 'resnet18' (the paper's) or 'resnet10-narrow'."""
+    normalize: str = "image"
+    """Input scale: 'image' (each input over its own RMS) or 'background' (the difference over the RMS of
+    its empty-room photograph: exposure- and spot-invariant, but keeps how bright the person is)."""
     clip_flag: bool = True
     """Append the camera's clip flag (1 where the pixel saturated) as an input channel."""
 
@@ -87,8 +90,11 @@ class NLOSNet(nn.Module):
     def reads_clip_flag(self) -> bool:
         return self.cfg.clip_flag
 
+    per_image_norm = True
+    """Divide each image by its RMS (off when the registry's wrapper scales by the background)."""
+
     def forward(self, images: torch.Tensor, clipped: torch.Tensor | None = None):
-        x = exposure_normalized(images)
+        x = exposure_normalized(images) if self.per_image_norm else self.channels_first(images)
         if self.cfg.clip_flag:  # no flag given: nothing clipped (noise-free images)
             flag = torch.zeros_like(x[:, :1]) if clipped is None else clipped.unsqueeze(1).to(x.dtype)
             x = torch.cat([x, flag], dim=1)

@@ -41,9 +41,13 @@ class PositionScaled(nn.Module):
         -> position (B, 2) m, logits (B, 6).
     """
 
-    def __init__(self, net: nn.Module, subtract: bool = False):
+    def __init__(self, net: nn.Module, subtract: bool = False, normalize: str = "image"):
         super().__init__()
-        self.net, self.subtract = net, subtract
+        if normalize not in ("image", "background") or (normalize == "background" and not subtract):
+            raise NlosError(f"network: normalize must be 'image' or 'background' (with background_subtract), "
+                            f"got {normalize!r}")
+        self.net, self.subtract, self.by_background = net, subtract, normalize == "background"
+        self.net.per_image_norm = not self.by_background
         self.register_buffer("position_mean", torch.zeros(2))
         self.register_buffer("position_std", torch.ones(2))
 
@@ -60,6 +64,9 @@ class PositionScaled(nn.Module):
             images = images - background
             if clipped is not None:  # a clipped pixel's difference is the clip, not the person
                 images = images.masked_fill(clipped.unsqueeze(-1), 0.0)
+            if self.by_background:  # 1e3: the person's light is ~1e-3 of the room's
+                rms = background.pow(2).mean(dim=(-3, -2, -1), keepdim=True).sqrt().clamp(min=1e-20)
+                images = 1e3 * images / rms
         pos, logits = self.net(images, clipped) if getattr(self.net, "reads_clip_flag", False) else self.net(images)
         return self.position_mean + self.position_std * pos, logits
 
@@ -69,4 +76,4 @@ def build_network(arch: str, cfg: NLOSNetConfig | None = None) -> PositionScaled
     if arch not in NETWORKS:
         raise NlosError(f"network: unknown architecture '{arch}' (choose from {', '.join(NETWORKS)})")
     cfg = cfg or NLOSNetConfig()
-    return PositionScaled(NETWORKS[arch](cfg), subtract=cfg.background_subtract)
+    return PositionScaled(NETWORKS[arch](cfg), subtract=cfg.background_subtract, normalize=cfg.normalize)

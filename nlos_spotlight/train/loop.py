@@ -127,14 +127,24 @@ class Trainer:
         return self.step < self.cfg.spot_steps
 
     def freeze_spots(self) -> None:
-        """End of stage 1: each room keeps the IEN's most probable spot (what inference picks)."""
+        """End of stage 1: each room keeps the IEN's most probable spot (what inference picks).
+
+        Rooms whose people are image samples hold only their stored spots: there the choice is the
+        most probable stored spot, and ``unstored_choices`` counts the rooms where the IEN's own
+        first choice was not stored (so a report can say how often that restriction bit).
+        """
         from ..lighting.base import Illumination
 
         self.ien.eval()
         with torch.no_grad():
             logits = self.ien_logits(self.scenes)
-        self.fixed = [Illumination("spot", int(lg.masked_fill(~s.landed, float("-inf")).argmax()))
-                      for s, lg in zip(self.scenes, logits)]
+        self.fixed, self.unstored_choices = [], 0
+        for s, lg in zip(self.scenes, logits):
+            lg = lg.masked_fill(~s.landed, float("-inf"))
+            stored = s.stored if s.stored is not None else torch.ones_like(s.landed)
+            best = int(lg.masked_fill(~stored, float("-inf")).argmax())
+            self.unstored_choices += int(best != int(lg.argmax()))
+            self.fixed.append(Illumination("spot", best))
         self.spot_snr = None
 
     def set_learning_rate(self) -> None:

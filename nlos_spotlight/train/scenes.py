@@ -199,6 +199,11 @@ def _factors(full: list[dict], images: list[dict], spots: list[int], t: int) -> 
     return u, v
 
 
+def _sample_files(folder: Path) -> list[Path]:
+    """The sample files of a folder in index order (a writer's dot-named temporaries left out)."""
+    return [f for f in sorted(folder.glob("*.npz")) if not f.name.startswith(".")]
+
+
 def load_scene_tensors(scene_dir: Path, features: list[str], samples: str = "all") -> SceneTensors:
     """One stored room; ``samples``: 'all' (full-transport samples, then image samples, in sample
     order), 'transport' (only full-transport ones) or 'images' (only image samples, rank K).
@@ -210,9 +215,9 @@ def load_scene_tensors(scene_dir: Path, features: list[str], samples: str = "all
     scene_dir = Path(scene_dir)
     try:
         st = np.load(scene_dir / "static.npz")
-        full = [_read_sample(f, False) for f in sorted((scene_dir / "samples").glob("*.npz"))] \
+        full = [_read_sample(f, False) for f in _sample_files(scene_dir / "samples")] \
             if samples != "images" else []
-        images = [_read_sample(f, True) for f in sorted((scene_dir / "images").glob("*.npz"))] \
+        images = [_read_sample(f, True) for f in _sample_files(scene_dir / "images")] \
             if samples != "transport" else []
     except Exception as exc:  # np.load raises several types on torn files
         raise NlosError(f"{scene_dir}: corrupted dataset file ({type(exc).__name__})") from None

@@ -14,7 +14,7 @@ import torch
 from torch import nn
 
 
-from ..nlos_net import exposure_normalized  # noqa: E402  (shared by every network)
+from ..nlos_net import NLOSNet, exposure_normalized  # noqa: E402  (shared by every network)
 
 
 def conv_block(cin: int, cout: int, kernel: int, pool: bool = True) -> nn.Sequential:
@@ -63,6 +63,10 @@ class BaselineNet(nn.Module):
             elif m is not self and hasattr(m, "reset_parameters"):
                 m.reset_parameters()
 
+    per_image_norm = True
+    """Divide each image by its RMS (off when the registry's wrapper scales by the background)."""
+
     def forward(self, images: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        f = self.features(exposure_normalized(images))
+        x = exposure_normalized(images) if self.per_image_norm else NLOSNet.channels_first(images)
+        f = self.features(x)
         return self.position_head(f), self.posture_head(f)
