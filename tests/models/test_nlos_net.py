@@ -75,3 +75,23 @@ def test_narrow_backbone_is_a_smaller_resnet():
     assert 8 < count(big) / count(small) < 10
     net = NLOSNet(NLOSNetConfig(backbone="resnet10-narrow")).eval()
     assert net(torch.rand(2, 32, 32, 3))[1].shape == (2, 6)
+
+
+def test_background_normalization_is_exposure_invariant_but_keeps_brightness():
+    """normalize='background': (photo - background) / rms(background); scaling both by c changes nothing,
+    while a brighter person (same background) changes the input, unlike per-image normalization."""
+    import pytest
+
+    from nlos_spotlight.errors import NlosError
+    from nlos_spotlight.models.registry import build_network
+
+    torch.manual_seed(0)
+    net = build_network("resnet18", NLOSNetConfig(background_subtract=True, normalize="background",
+                                                  backbone="resnet10-narrow")).eval()
+    bg = torch.rand(2, 16, 16, 3) + 0.5
+    person = 1e-3 * torch.rand(2, 16, 16, 3)
+    out = net(bg + person, bg)[1]
+    torch.testing.assert_close(net(7.0 * (bg + person), 7.0 * bg)[1], out, rtol=1e-4, atol=1e-5)
+    assert not torch.allclose(net(bg + 3 * person, bg)[1], out, atol=1e-4)
+    with pytest.raises(NlosError, match="normalize"):
+        build_network("resnet18", NLOSNetConfig(normalize="background"))
