@@ -74,7 +74,10 @@ def main() -> None:
     torch.set_num_threads(1)
     rows = []
     print(f"{'scene':12s} lamp  exposure old -> new     SNR old -> new   gain")
-    for sid in split_ids(args.data, args.split):
+    data = Path(args.data)
+    ids = split_ids(data, args.split) if (data / "manifest.json").exists() else \
+        sorted(p.name for p in (data / "scenes").glob(f"{args.split}-*") if (p / "static.npz").exists())
+    for sid in ids:
         r = room(Path(args.data) / "scenes" / sid)
         rows.append(r)
         print(f"{sid:12s} {'yes' if r['lamp'] else 'no ':4s} {r['exposure_old']:9.4f} -> {r['exposure_new']:7.4f} s "
