@@ -38,7 +38,8 @@ COLUMNS = ["protocol", "capture", "policy", "people_per_room", "posture_accuracy
 
 
 def base_config(args, seed: int, backbone: str) -> TrainConfig:
-    net = NLOSNetConfig(background_subtract=True, backbone=backbone)
+    stem = "cifar" if backbone == "resnet18" else args.stem  # ResNet-18 as the paper's network
+    net = NLOSNetConfig(background_subtract=True, backbone=backbone, stem=stem)
     return TrainConfig(name="learning-curve", seed=seed, batch_size=args.batch, scenes_per_step=1, lr=args.lr,
                        lr_schedule="cosine", patience=args.patience, holdout_every=10, net=net, device="cpu")
 
@@ -61,7 +62,8 @@ def run_one(args, rooms, spec: dict, seed: int):
         cfg = dataclasses.replace(cfg, policy="ien", spot_steps=args.spot_steps)
     else:
         cfg = dataclasses.replace(cfg, policy=spec["policy"])
-    key = f"{spec['capture']}-{spec['policy']}-{spec['n']}-{spec['backbone']}-s{seed}"
+    stem = "" if spec["backbone"] == "resnet18" else f"-{args.stem}"
+    key = f"{spec['capture']}-{spec['policy']}-{spec['n']}-{spec['backbone']}{stem}-s{seed}"
     epochs = args.epochs * (args.resnet18_epoch_scale if spec["backbone"] == "resnet18" else 1.0)
     return run_seen(cfg, rooms, spec["n"], Path(args.runs) / key, epochs, progress=not args.quiet)
 
@@ -83,6 +85,8 @@ def main() -> None:
     ap.add_argument("--sizes", default="100,300,1000,3000", help="training people per room")
     ap.add_argument("--policies", default="ien,adaptive,center,random", help="other spots at the largest size")
     ap.add_argument("--backbone", default="resnet10-narrow")
+    ap.add_argument("--stem", default="imagenet", help="stem of the lighter backbone: imagenet (stride 4, ~6x "
+                                                       "faster on CPU) or cifar")
     ap.add_argument("--resnet18", action="store_true", help="also ResNet-18 once at the largest size")
     ap.add_argument("--resnet18-epoch-scale", type=float, default=0.5)
     ap.add_argument("--epochs", type=float, default=40)
@@ -115,7 +119,7 @@ def main() -> None:
                "people_per_room": spec["n"], "posture_accuracy": round(mean("posture_accuracy"), 2),
                "posture3_accuracy": round(mean("posture3_accuracy"), 2), "error_cm": round(mean("error_cm"), 2),
                "crb_cm": crb.get(spec["policy"], "") if spec["capture"] == "default" else "",
-               "seeds": len(res), "arch": spec["backbone"], "mean_answer_cm": round(mean("mean_answer_cm"), 2),
+               "seeds": len(res), "arch": spec["backbone"] + ("" if spec["backbone"] == "resnet18" else f"/{args.stem}"), "mean_answer_cm": round(mean("mean_answer_cm"), 2),
                "steps": int(mean("steps")), "seconds": round(mean("seconds"), 1)}
         rows.append(row)
         confusions[f"{spec['capture']}-{spec['policy']}-{spec['n']}-{spec['backbone']}"] = \
@@ -140,7 +144,7 @@ def plot(rows: list[dict], path: Path) -> None:
 
     fig, ax = plt.subplots(1, 3, figsize=(13, 3.8))
     for capture, style in (("noise-free", "--"), ("default", "-")):
-        sel = [r for r in rows if r["capture"] == capture and r["policy"] == "oracle" and r["arch"] != "resnet18"]
+        sel = [r for r in rows if r["capture"] == capture and r["policy"] == "oracle" and not r["arch"].startswith("resnet18")]
         if not sel:
             continue
         n = [r["people_per_room"] for r in sel]
@@ -148,8 +152,8 @@ def plot(rows: list[dict], path: Path) -> None:
             a.plot(n, [r[key] for r in sel], style, marker="o", label=f"oracle spot, {capture}")
     top = max((r["people_per_room"] for r in rows), default=0)
     for r in rows:
-        if r["people_per_room"] == top and (r["policy"] != "oracle" or r["arch"] == "resnet18"):
-            label = r["policy"] + (" (ResNet-18)" if r["arch"] == "resnet18" else "")
+        if r["people_per_room"] == top and (r["policy"] != "oracle" or r["arch"].startswith("resnet18")):
+            label = r["policy"] + (" (ResNet-18)" if r["arch"].startswith("resnet18") else "")
             for a, key in zip(ax, ("posture_accuracy", "posture3_accuracy", "error_cm")):
                 a.scatter([top], [r[key]], marker="x")
                 a.annotate(label, (top, r[key]), fontsize=7)
