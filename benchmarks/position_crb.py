@@ -20,7 +20,7 @@ import numpy as np
 import torch
 
 from nlos_spotlight.data.config import DatasetConfig
-from nlos_spotlight.data.generate import plan
+from nlos_spotlight.data.generate import plan, transport_count
 from nlos_spotlight.data.scene_builder import SceneBuilder
 from nlos_spotlight.evaluate.crb import position_crb
 from nlos_spotlight.render.person import Person
@@ -67,7 +67,8 @@ def main() -> None:
         r = Renderer(scene, settings, aim_points=st["aim_points"][faces])
         sensor = capture_sensor(r.shape)
         specs = b._specs(scene)
-        test = [k for k in range(len(specs)) if k % 10 == 9 and specs[k]["trajectory"] < 0][:args.people]
+        m = transport_count(cfg, p.split)  # image samples start at m: the learning curve's index k - m
+        test = [k for k in range(m, len(specs)) if (k - m) % 10 == 9 and specs[k]["trajectory"] < 0][:args.people]
         for k in test:
             spec = specs[k]
             body = posed_body(spec["params"], target_faces=cfg.body_faces)
@@ -79,7 +80,11 @@ def main() -> None:
                     continue
                 crb = position_crb(r, r.spot_vector(faces.index(s[i])), person, t, sensor)
                 values[policy].append(100 * crb)
-        print(f"room {p.id}: " + ", ".join(f"{k} {np.mean(v):.2f} cm" for k, v in values.items() if v), flush=True)
+        print(f"after room {p.id}: " + ", ".join(f"{k} {np.mean(v):.2f} cm" for k, v in values.items() if v), flush=True)
+    for k, v in values.items():
+        if v:
+            print(f"{k}: CRB mean {np.mean(v):.2f} cm, median {np.median(v):.2f} cm, "
+                  f"10-90% {np.percentile(v, 10):.2f}-{np.percentile(v, 90):.2f} cm over {len(v)} people")
     out = {k: round(float(np.mean(v)), 3) for k, v in values.items() if v}
     Path(args.json).parent.mkdir(parents=True, exist_ok=True)
     Path(args.json).write_text(json.dumps(out, indent=1))
