@@ -29,6 +29,7 @@ import numpy as np
 import torch
 
 from nlos_spotlight.evaluate.seen import run_seen, split_room
+from nlos_spotlight.models.baselines import BASELINES
 from nlos_spotlight.models.nlos_net import NLOSNetConfig
 from nlos_spotlight.train.config import TrainConfig
 from nlos_spotlight.train.scenes import load_scene_tensors, split_ids
@@ -38,10 +39,18 @@ COLUMNS = ["protocol", "capture", "policy", "people_per_room", "posture_accuracy
 
 
 def base_config(args, seed: int, backbone: str) -> TrainConfig:
-    stem = "cifar" if backbone == "resnet18" else args.stem  # ResNet-18 as the paper's network
-    net = NLOSNetConfig(background_subtract=True, backbone=backbone, stem=stem)
+    """Our network with ``backbone`` (ResNet-18 with its small-image stem, the lighter one with
+    ``--stem``), or a baseline network of ``models.registry.NETWORKS`` by name."""
+    arch = backbone if backbone in BASELINES else "resnet18"
+    stem = "cifar" if backbone == "resnet18" else args.stem
+    net = NLOSNetConfig(background_subtract=True, backbone="resnet18" if arch != "resnet18" else backbone, stem=stem)
     return TrainConfig(name="learning-curve", seed=seed, batch_size=args.batch, scenes_per_step=1, lr=args.lr,
-                       lr_schedule="cosine", patience=args.patience, holdout_every=10, net=net, device="cpu")
+                       lr_schedule="cosine", patience=args.patience, holdout_every=10, net=net, device="cpu",
+                       arch=arch)
+
+
+def arch_label(backbone: str, stem: str) -> str:
+    return backbone if backbone in ("resnet18", *BASELINES) else f"{backbone}/{stem}"
 
 
 def plan(args) -> list[dict]:
@@ -52,6 +61,7 @@ def plan(args) -> list[dict]:
              for p in args.policies.split(",") if p]
     if args.resnet18:
         runs.append(dict(capture="default", policy="oracle", n=sizes[-1], backbone="resnet18"))
+    runs += [dict(capture="default", policy="oracle", n=sizes[-1], backbone=a) for a in args.baselines.split(",") if a]
     return runs
 
 
@@ -62,7 +72,7 @@ def run_one(args, rooms, spec: dict, seed: int):
         cfg = dataclasses.replace(cfg, policy="ien", spot_steps=args.spot_steps)
     else:
         cfg = dataclasses.replace(cfg, policy=spec["policy"])
-    stem = "" if spec["backbone"] == "resnet18" else f"-{args.stem}"
+    stem = "" if spec["backbone"] in ("resnet18", *BASELINES) else f"-{args.stem}"
     key = f"{spec['capture']}-{spec['policy']}-{spec['n']}-{spec['backbone']}{stem}-s{seed}"
     epochs = args.epochs * (args.resnet18_epoch_scale if spec["backbone"] == "resnet18" else 1.0)
     return run_seen(cfg, rooms, spec["n"], Path(args.runs) / key, epochs, progress=not args.quiet)
@@ -89,6 +99,7 @@ def main() -> None:
                                                        "faster on CPU) or cifar")
     ap.add_argument("--resnet18", action="store_true", help="also ResNet-18 once at the largest size")
     ap.add_argument("--resnet18-epoch-scale", type=float, default=0.5)
+    ap.add_argument("--baselines", default="", help="baseline networks (e.g. chandran) also run at the largest size")
     ap.add_argument("--epochs", type=float, default=40)
     ap.add_argument("--patience", type=int, default=8)
     ap.add_argument("--batch", type=int, default=64)
@@ -119,7 +130,8 @@ def main() -> None:
                "people_per_room": spec["n"], "posture_accuracy": round(mean("posture_accuracy"), 2),
                "posture3_accuracy": round(mean("posture3_accuracy"), 2), "error_cm": round(mean("error_cm"), 2),
                "crb_cm": crb.get(spec["policy"], "") if spec["capture"] == "default" else "",
-               "seeds": len(res), "arch": spec["backbone"] + ("" if spec["backbone"] == "resnet18" else f"/{args.stem}"), "mean_answer_cm": round(mean("mean_answer_cm"), 2),
+               "seeds": len(res), "arch": arch_label(spec["backbone"], args.stem),
+               "mean_answer_cm": round(mean("mean_answer_cm"), 2),
                "steps": int(mean("steps")), "seconds": round(mean("seconds"), 1)}
         rows.append(row)
         confusions[f"{spec['capture']}-{spec['policy']}-{spec['n']}-{spec['backbone']}"] = \
@@ -144,7 +156,8 @@ def plot(rows: list[dict], path: Path) -> None:
 
     fig, ax = plt.subplots(1, 3, figsize=(13, 3.8))
     for capture, style in (("noise-free", "--"), ("default", "-")):
-        sel = [r for r in rows if r["capture"] == capture and r["policy"] == "oracle" and not r["arch"].startswith("resnet18")]
+        sel = [r for r in rows
+               if r["capture"] == capture and r["policy"] == "oracle" and r["arch"].startswith("resnet10")]
         if not sel:
             continue
         n = [r["people_per_room"] for r in sel]
@@ -152,8 +165,9 @@ def plot(rows: list[dict], path: Path) -> None:
             a.plot(n, [r[key] for r in sel], style, marker="o", label=f"oracle spot, {capture}")
     top = max((r["people_per_room"] for r in rows), default=0)
     for r in rows:
-        if r["people_per_room"] == top and (r["policy"] != "oracle" or r["arch"].startswith("resnet18")):
-            label = r["policy"] + (" (ResNet-18)" if r["arch"].startswith("resnet18") else "")
+        other_net = not r["arch"].startswith("resnet10")
+        if r["people_per_room"] == top and (r["policy"] != "oracle" or other_net):
+            label = r["policy"] + (f" ({r['arch']})" if other_net else "")
             for a, key in zip(ax, ("posture_accuracy", "posture3_accuracy", "error_cm")):
                 a.scatter([top], [r[key]], marker="x")
                 a.annotate(label, (top, r[key]), fontsize=7)

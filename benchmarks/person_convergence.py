@@ -8,11 +8,14 @@ candidate spot (``Renderer.transport_images``) and, under the flash, ``nlos`` an
 ``nlos_ambient``. Each is compared with the *converged* render of the same decimated body: the
 ``faces`` rule at ``--ref-samples`` samples (every face cut into k x k sub-triangles). Rows:
 
-* ``mc``: the old Monte Carlo sampler at the preset's old ``person_samples``;
+* ``mc``: the Monte Carlo sampler at the preset's ``person_samples`` from before the ``faces``
+  rule (192, 192, 256, 512);
+* the preset's own ``person_quadrature`` at its ``person_samples`` (marked ``*``);
+* ``faces`` at each of ``--faces-n`` (default 1500 and 4000);
 * ``area``: the ``faces`` rule without its self-shadow weight (density by area alone), at the
-  preset's ``person_samples``;
-* ``faces``: the preset's ``person_quadrature`` at its ``person_samples``;
-* extra ``faces`` sample counts from ``--faces-n``.
+  largest ``--faces-n``.
+
+A row is printed once when two of these coincide; ``n`` is the number of samples made.
 
 Errors are relative L2 over all of F (T x H x W x 3), over the flash ``nlos`` image and over the
 ``nlos_ambient`` image; s/person is Person.from_mesh + transport_images + the flash render (what
@@ -21,7 +24,7 @@ a dataset sample spends on the person light, the low-rank factorization and body
 The posture-signal table gives each posture's converged relative L2 difference from ``standing``
 (same place, facing, build and albedo): the signal that body-sampling error must stay well below.
 
-    python benchmarks/person_convergence.py [--quick] [--presets tiny demo] [--faces-n 2000 4000]
+    python benchmarks/person_convergence.py [--quick] [--presets tiny demo] [--faces-n 1500 3000 4000]
 """
 
 from __future__ import annotations
@@ -111,8 +114,9 @@ def run_preset(name: str, args) -> None:
           f"person at ({xy[0]:.2f}, {xy[1]:.2f}) facing {base.facing_deg:.0f} deg; "
           f"reference: faces rule at {args.ref_samples} samples", flush=True)
     print(f"{'posture':10s} {'rule':6s} {'n':>6s} {'err F':>8s} {'flash':>8s} {'amb':>8s} {'s/person':>9s}")
-    rows = [("mc", OLD_MC_SAMPLES[name]), ("area", cfg.person_samples), (cfg.person_quadrature, cfg.person_samples)]
-    rows += [("faces", n) for n in args.faces_n]
+    preset = (cfg.person_quadrature, cfg.person_samples)
+    rows = [("mc", OLD_MC_SAMPLES[name]), preset, *(("faces", n) for n in args.faces_n)]
+    rows = list(dict.fromkeys(rows + [("area", max(args.faces_n))] if args.faces_n else rows))
     refs = {}
     for posture in args.postures:
         params = dataclasses.replace(base, posture=posture)
@@ -124,7 +128,8 @@ def run_preset(name: str, args) -> None:
         for rule, n in rows:
             light, count, sec = timed_light(r, flash, body, params.albedo, n, rule, t)
             errs = " ".join(f"{100 * rel(light[k], ref[k]):7.2f}%" for k in ("F", "flash", "amb"))
-            print(f"{posture:10s} {rule:6s} {count:6d} {errs} {sec:9.2f}", flush=True)
+            mark = "*" if (rule, n) == preset else " "
+            print(f"{posture:10s} {rule:5s}{mark} {count:6d} {errs} {sec:9.2f}", flush=True)
         print(f"{posture:10s} {'ref':6s} {len(ref_person):6d} {'':26s} {t_ref:9.2f}", flush=True)
     if "standing" in refs:
         print(f"\nposture signal ({name}, converged): relative L2 difference from standing")
@@ -140,7 +145,7 @@ def main() -> None:
     ap.add_argument("--presets", nargs="+", default=list(PRESETS), choices=list(PRESETS))
     ap.add_argument("--postures", nargs="+", default=list(POSTURES), choices=list(POSTURES))
     ap.add_argument("--ref-samples", type=int, default=30000, help="faces-rule samples of the converged render")
-    ap.add_argument("--faces-n", type=int, nargs="*", default=[], help="extra faces-rule sample counts")
+    ap.add_argument("--faces-n", type=int, nargs="*", default=[1500, 4000], help="faces-rule sample counts")
     ap.add_argument("--max-spots", type=int, default=0, help="evenly spaced subset of the candidates (0: all)")
     ap.add_argument("--seed", type=int, default=0, help="room seed")
     ap.add_argument("--quick", action="store_true",

@@ -80,7 +80,8 @@ def main() -> None:
                     continue
                 crb = position_crb(r, r.spot_vector(faces.index(s[i])), person, t, sensor)
                 values[policy].append(100 * crb)
-        print(f"after room {p.id}: " + ", ".join(f"{k} {np.mean(v):.2f} cm" for k, v in values.items() if v), flush=True)
+        done = ", ".join(f"{k} {np.mean(v):.2f} cm" for k, v in values.items() if v)
+        print(f"after room {p.id}: {done}", flush=True)
     for k, v in values.items():
         if v:
             print(f"{k}: CRB mean {np.mean(v):.2f} cm, median {np.median(v):.2f} cm, "

@@ -34,7 +34,7 @@ class TrainConfig:
     tau: float = 0.5
     """Gumbel-softmax temperature of the straight-through spot choice."""
     sensor_noise: bool = True
-    """Simulate the sensor (metering, shot/read/quantization noise, clipping) on every training image, afresh each step."""
+    """Simulate the camera (metering, shot/read/quantization noise, clipping) on every image, afresh each step."""
     sensor: dict = field(default_factory=dict)
     """Capture settings over the default camera (``render.sensor.SensorConfig`` fields, e.g. burst_frames)."""
     position_weight: float = 1.0
