@@ -59,9 +59,10 @@ def plan(args) -> list[dict]:
             for c in ("noise-free", "default")]
     runs += [dict(capture="default", policy=p, n=sizes[-1], backbone=args.backbone)
              for p in args.policies.split(",") if p]
+    other_n = args.other_networks_size or sizes[-1]
     if args.resnet18:
-        runs.append(dict(capture="default", policy="oracle", n=sizes[-1], backbone="resnet18"))
-    runs += [dict(capture="default", policy="oracle", n=sizes[-1], backbone=a) for a in args.baselines.split(",") if a]
+        runs.append(dict(capture="default", policy="oracle", n=other_n, backbone="resnet18"))
+    runs += [dict(capture="default", policy="oracle", n=other_n, backbone=a) for a in args.baselines.split(",") if a]
     return runs
 
 
@@ -100,6 +101,8 @@ def main() -> None:
     ap.add_argument("--resnet18", action="store_true", help="also ResNet-18 once at the largest size")
     ap.add_argument("--resnet18-epoch-scale", type=float, default=0.5)
     ap.add_argument("--baselines", default="", help="baseline networks (e.g. chandran) also run at the largest size")
+    ap.add_argument("--other-networks-size", type=int, default=0,
+                    help="people per room of the ResNet-18 and baseline runs (default: the largest size)")
     ap.add_argument("--epochs", type=float, default=40)
     ap.add_argument("--patience", type=int, default=8)
     ap.add_argument("--batch", type=int, default=64)
