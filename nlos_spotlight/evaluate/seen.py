@@ -143,11 +143,10 @@ def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs
         tr.load(ckpt)
     from ..train.loop import _validation_pass
 
-    stop = cfg.patience > 0 and tr.bad_evals >= cfg.patience
+    stop = tr.stopped_early
     while tr.step < tr.total_steps and not stop:
         tr.train_step()
-        net_step = tr.step - cfg.spot_steps
-        if net_step > 0 and (net_step % cfg.eval_every == 0 or tr.step == tr.total_steps):
+        if tr.validation_due:
             stop = _validation_pass(tr, out)
             tr.save(ckpt)
             if progress:

@@ -126,6 +126,18 @@ class Trainer:
     def in_spot_stage(self) -> bool:
         return self.step < self.cfg.spot_steps
 
+    @property
+    def validation_due(self) -> bool:
+        """A validation pass follows this step: every ``eval_every`` network steps and at the last."""
+        net_step = self.step - self.cfg.spot_steps
+        return self.val_scenes is not None and net_step > 0 and \
+            (net_step % self.cfg.eval_every == 0 or self.step == self.total_steps)
+
+    @property
+    def stopped_early(self) -> bool:
+        """``patience`` validation passes in a row brought no improvement (also true of a resumed run)."""
+        return self.cfg.patience > 0 and self.bad_evals >= self.cfg.patience
+
     def freeze_spots(self) -> None:
         """End of stage 1: each room keeps the IEN's most probable spot (what inference picks).
 
@@ -382,7 +394,7 @@ def _validation_pass(tr: Trainer, out: Path) -> bool:
         tr.save(out / "best.pt")
     else:
         tr.bad_evals += 1
-    return tr.cfg.patience > 0 and tr.bad_evals >= tr.cfg.patience
+    return tr.stopped_early
 
 
 def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool = False,
@@ -422,7 +434,7 @@ def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool 
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     cols = (TextColumn("train"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(), TextColumn("{task.description}"))
-    stop = cfg.patience > 0 and tr.bad_evals >= cfg.patience  # a resumed run that had stopped early
+    stop = tr.stopped_early
     with Progress(*cols, console=console, disable=QUIET or not progress or tr.rank != 0) as bar:
         task = bar.add_task("", total=tr.total_steps, completed=tr.step)
         while tr.step < tr.total_steps and not stop:
@@ -431,8 +443,7 @@ def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool 
             if tr.rank == 0 and (tr.step % cfg.log_every == 0 or tr.step == tr.total_steps):
                 with metrics.open("a", newline="") as f:
                     csv.writer(f).writerow([tr.step] + [row[k] for k in fields[1:-1]] + [time.perf_counter() - t0])
-            net_step = tr.step - cfg.spot_steps
-            if val is not None and net_step > 0 and (net_step % cfg.eval_every == 0 or tr.step == tr.total_steps):
+            if tr.validation_due:
                 stop = _validation_pass(tr, out)
             if tr.step % cfg.ckpt_every == 0 or tr.step == tr.total_steps or stop:
                 tr.save(ckpt)
