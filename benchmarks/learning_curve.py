@@ -38,19 +38,24 @@ COLUMNS = ["protocol", "capture", "policy", "people_per_room", "posture_accuracy
            "crb_cm", "seeds", "arch", "mean_answer_cm", "steps", "seconds"]
 
 
-def base_config(args, seed: int, backbone: str) -> TrainConfig:
+def base_config(args, seed: int, backbone: str, rooms: int) -> TrainConfig:
     """Our network with ``backbone`` (ResNet-18 with its small-image stem, the lighter one with
-    ``--stem``), or a baseline network of ``models.registry.NETWORKS`` by name."""
+    ``--stem`` and ``--pool-grid``), or a baseline network of ``models.registry.NETWORKS`` by name.
+
+    Every batch mixes all rooms (``scenes_per_step``): with one room per batch, batch norm trains on
+    one room's statistics and tests on the running mix of all (``benchmarks/learning_ablation.py``:
+    66 -> 32 cm at 500 people in two rooms)."""
     arch = backbone if backbone in BASELINES else "resnet18"
-    stem = "cifar" if backbone == "resnet18" else args.stem
-    net = NLOSNetConfig(background_subtract=True, backbone="resnet18" if arch != "resnet18" else backbone, stem=stem)
-    return TrainConfig(name="learning-curve", seed=seed, batch_size=args.batch, scenes_per_step=1, lr=args.lr,
-                       lr_schedule="cosine", patience=args.patience, holdout_every=10, net=net, device="cpu",
-                       arch=arch)
+    light = arch == "resnet18" and backbone != "resnet18"
+    net = NLOSNetConfig(background_subtract=True, backbone="resnet18" if arch != "resnet18" else backbone,
+                        stem=args.stem if light else "cifar", pool_grid=args.pool_grid if light else 1)
+    return TrainConfig(name="learning-curve", seed=seed, batch_size=args.batch, scenes_per_step=min(rooms, args.batch),
+                       lr=args.lr, lr_schedule="cosine", patience=args.patience, holdout_every=10, net=net,
+                       device="cpu", arch=arch)
 
 
-def arch_label(backbone: str, stem: str) -> str:
-    return backbone if backbone in ("resnet18", *BASELINES) else f"{backbone}/{stem}"
+def arch_label(backbone: str, stem: str, grid: int = 1) -> str:
+    return backbone if backbone in ("resnet18", *BASELINES) else f"{backbone}/{stem}" + (f"/grid{grid}" if grid > 1 else "")
 
 
 def plan(args) -> list[dict]:
@@ -67,15 +72,16 @@ def plan(args) -> list[dict]:
 
 
 def run_one(args, rooms, spec: dict, seed: int):
-    cfg = base_config(args, seed, spec["backbone"])
+    cfg = base_config(args, seed, spec["backbone"], len(rooms))
     cfg = dataclasses.replace(cfg, sensor_noise=spec["capture"] == "default")
     if spec["policy"] == "ien":
         cfg = dataclasses.replace(cfg, policy="ien", spot_steps=args.spot_steps)
     else:
         cfg = dataclasses.replace(cfg, policy=spec["policy"])
-    stem = "" if spec["backbone"] in ("resnet18", *BASELINES) else f"-{args.stem}"
-    key = f"{spec['capture']}-{spec['policy']}-{spec['n']}-{spec['backbone']}{stem}-s{seed}"
+    label = arch_label(spec["backbone"], args.stem, args.pool_grid).replace("/", "-")
+    key = f"{spec['capture']}-{spec['policy']}-{spec['n']}-{label}-s{seed}"
     epochs = args.epochs * (args.resnet18_epoch_scale if spec["backbone"] == "resnet18" else 1.0)
+    epochs = max(epochs, args.min_steps * args.batch / (spec["n"] * len(rooms)))  # small N: enough steps
     return run_seen(cfg, rooms, spec["n"], Path(args.runs) / key, epochs, progress=not args.quiet)
 
 
@@ -98,6 +104,8 @@ def main() -> None:
     ap.add_argument("--backbone", default="resnet10-narrow")
     ap.add_argument("--stem", default="imagenet", help="stem of the lighter backbone: imagenet (stride 4, ~6x "
                                                        "faster on CPU) or cifar")
+    ap.add_argument("--pool-grid", type=int, default=1, help="lighter backbone: last map pooled to g x g cells")
+    ap.add_argument("--min-steps", type=int, default=0, help="train at least this many steps at any size")
     ap.add_argument("--resnet18", action="store_true", help="also ResNet-18 once at the largest size")
     ap.add_argument("--resnet18-epoch-scale", type=float, default=0.5)
     ap.add_argument("--baselines", default="", help="baseline networks (e.g. chandran) also run at the largest size")
@@ -133,7 +141,7 @@ def main() -> None:
                "people_per_room": spec["n"], "posture_accuracy": round(mean("posture_accuracy"), 2),
                "posture3_accuracy": round(mean("posture3_accuracy"), 2), "error_cm": round(mean("error_cm"), 2),
                "crb_cm": crb.get(spec["policy"], "") if spec["capture"] == "default" else "",
-               "seeds": len(res), "arch": arch_label(spec["backbone"], args.stem),
+               "seeds": len(res), "arch": arch_label(spec["backbone"], args.stem, args.pool_grid),
                "mean_answer_cm": round(mean("mean_answer_cm"), 2),
                "steps": int(mean("steps")), "seconds": round(mean("seconds"), 1)}
         rows.append(row)

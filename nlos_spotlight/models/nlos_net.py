@@ -33,7 +33,9 @@ class NLOSNetConfig:
     postures: int = 6
     """Posture classes."""
     stem: str = "cifar"
-    """ResNet stem: 'cifar' for small images, 'imagenet' for large ones."""
+    """ResNet stem: 'cifar' (stride 1) for small images, 'half' (stride 2), 'imagenet' (stride 4) for large ones."""
+    pool_grid: int = 1
+    """Last feature map averaged to g x g cells and flattened (1: global average pooling, the paper's)."""
     background_subtract: bool = False
     """Feed (photograph - empty-room photograph) instead of the photograph (``registry.PositionScaled``)."""
     coord_channels: bool = False
@@ -71,7 +73,8 @@ class NLOSNet(nn.Module):
     def __init__(self, cfg: NLOSNetConfig | None = None):
         super().__init__()
         self.cfg = cfg = cfg or NLOSNetConfig()
-        self.backbone = backbone(cfg.backbone, 3 + 2 * cfg.coord_channels + cfg.clip_flag, cfg.stem)
+        self.backbone = backbone(cfg.backbone, 3 + 2 * cfg.coord_channels + cfg.clip_flag, cfg.stem,
+                                 cfg.pool_grid)
         h, f = cfg.head_hidden, self.backbone.out_features
         self.position_head = mlp([f, h, h, h, 2])
         self.posture_head = mlp([f, h, h, h, cfg.postures])

@@ -16,6 +16,10 @@ import torch
 from torch import nn
 
 
+STEM_STRIDE = {"cifar": 1, "half": 2}
+"""Stride of the single 3x3 convolution of the small-image stems."""
+
+
 class BasicBlock(nn.Module):
     """y = relu(bn(conv(relu(bn(conv(x))))) + shortcut(x))."""
 
@@ -40,28 +44,34 @@ class ResNet(nn.Module):
 
     Args:
         in_channels: input channels.
-        stem: 'cifar' (3x3, stride 1) or 'imagenet' (7x7 stride 2 + max-pool).
+        stem: 'cifar' (3x3, stride 1), 'half' (3x3, stride 2) or 'imagenet' (7x7 stride 2 + max-pool).
         widths: channels of each stage.
         blocks: BasicBlocks per stage.
+        pool_grid: 1 pools globally (the classic ResNet); g > 1 averages the last feature map to g x g
+            cells and flattens them, so the heads still see where in the frame the light fell.
     """
 
-    def __init__(self, in_channels: int = 3, stem: str = "cifar", widths=(64, 128, 256, 512), blocks=(2, 2, 2, 2)):
+    def __init__(self, in_channels: int = 3, stem: str = "cifar", widths=(64, 128, 256, 512), blocks=(2, 2, 2, 2),
+                 pool_grid: int = 1):
         super().__init__()
         w0 = widths[0]
+        conv = lambda k, stride: nn.Conv2d(in_channels, w0, k, stride, k // 2, bias=False)
         if stem == "imagenet":
-            self.stem = nn.Sequential(nn.Conv2d(in_channels, w0, 7, 2, 3, bias=False), nn.BatchNorm2d(w0),
-                                      nn.ReLU(), nn.MaxPool2d(3, 2, 1))
-        elif stem == "cifar":
-            self.stem = nn.Sequential(nn.Conv2d(in_channels, w0, 3, 1, 1, bias=False), nn.BatchNorm2d(w0), nn.ReLU())
+            self.stem = nn.Sequential(conv(7, 2), nn.BatchNorm2d(w0), nn.ReLU(), nn.MaxPool2d(3, 2, 1))
+        elif stem in STEM_STRIDE:
+            self.stem = nn.Sequential(conv(3, STEM_STRIDE[stem]), nn.BatchNorm2d(w0), nn.ReLU())
         else:
-            raise ValueError(f"stem must be 'imagenet' or 'cifar', got {stem!r}")
+            raise ValueError(f"stem must be one of imagenet, {', '.join(STEM_STRIDE)}; got {stem!r}")
+        if pool_grid < 1:
+            raise ValueError(f"pool_grid must be at least 1, got {pool_grid}")
         stages, cin = [], w0
         for i, (cout, n) in enumerate(zip(widths, blocks)):
             stride = 1 if i == 0 else 2
             stages.append(nn.Sequential(BasicBlock(cin, cout, stride), *[BasicBlock(cout, cout) for _ in range(n - 1)]))
             cin = cout
         self.stages = nn.Sequential(*stages)
-        self.out_features = widths[-1]
+        self.pool = nn.Sequential(nn.AdaptiveAvgPool2d(pool_grid), nn.Flatten())
+        self.out_features = widths[-1] * pool_grid**2
         self.reset_parameters()
 
     def reset_parameters(self) -> None:
@@ -73,7 +83,7 @@ class ResNet(nn.Module):
                 nn.init.zeros_(m.bias)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.stages(self.stem(x)).mean(dim=(2, 3))
+        return self.pool(self.stages(self.stem(x)))
 
 
 class ResNet18(ResNet):
@@ -93,8 +103,8 @@ BACKBONES = {
 1.2 M parameters against 11.2 M) is the lighter network the learning-curve sweeps train on CPU."""
 
 
-def backbone(name: str, in_channels: int, stem: str) -> ResNet:
+def backbone(name: str, in_channels: int, stem: str, pool_grid: int = 1) -> ResNet:
     """A backbone of :data:`BACKBONES` by name."""
     if name not in BACKBONES:
         raise ValueError(f"backbone must be one of {', '.join(BACKBONES)}, got {name!r}")
-    return ResNet(in_channels, stem, **BACKBONES[name])
+    return ResNet(in_channels, stem, pool_grid=pool_grid, **BACKBONES[name])
