@@ -2,7 +2,7 @@
 
 The learning curve (``benchmarks/learning_curve.py``) runs this for several N, captures and spot
 policies. Per training room the static samples split by index k: ``k % 10 == 9`` test, ``k % 10 ==
-8`` validation (the first 100 of each), the rest the training pool, of which a run takes the first N. Indices are in
+8`` validation (the first 100 of each), all others the training pool, of which a run takes the first N. Indices are in
 generation order and postures are a random permutation per room, so every subset is
 posture-balanced in expectation; the test and validation people are the same for every N.
 
@@ -47,13 +47,13 @@ class RoomSplit:
 def split_room(s: SceneTensors, period: int = 10, max_eval: int = 100) -> RoomSplit:
     """Static samples by index: k % period == period - 1 test, == period - 2 validation (the first
     ``max_eval`` of each, so a room still being generated keeps the same test people as it grows),
-    the other residues the training pool in index order."""
+    every other static sample the training pool in index order."""
     k = torch.arange(s.num_samples)
     static = s.trajectory[:, 0] < 0
     first = lambda m: m & (torch.cumsum(m.long(), 0) <= max_eval)
     test = first(static & (k % period == period - 1))
     val = first(static & (k % period == period - 2))
-    pool = static & (k % period < period - 2)
+    pool = static & ~test & ~val  # beyond the first max_eval, residues period-2 and -1 train too
     take = lambda m: s.subset(torch.nonzero(m).flatten())
     return RoomSplit(take(pool), take(val), take(test))
 

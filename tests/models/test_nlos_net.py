@@ -95,3 +95,19 @@ def test_background_normalization_is_exposure_invariant_but_keeps_brightness():
     assert not torch.allclose(net(bg + 3 * person, bg)[1], out, atol=1e-4)
     with pytest.raises(NlosError, match="normalize"):
         build_network("resnet18", NLOSNetConfig(normalize="background"))
+
+
+def test_half_stem_and_pool_grid_keep_where_the_light_fell():
+    """'half' halves the image once (32 -> 16 before the stages, a 2 x 2 last map); pool_grid g
+    averages that map over g x g cells, equal to a hand-made average of each cell."""
+    from nlos_spotlight.models.resnet import backbone
+
+    m = backbone("resnet10-narrow", 3, "half", pool_grid=2).eval()
+    x = torch.rand(3, 3, 32, 32)
+    feat = m.stages(m.stem(x))
+    assert feat.shape == (3, 256, 2, 2) and m.out_features == 1024
+    ref = feat.reshape(3, 256 * 4)  # 1 x 1 cells of a 2 x 2 map: the map itself, flattened
+    torch.testing.assert_close(m(x), ref)
+    g1 = backbone("resnet10-narrow", 3, "half").eval()
+    g1.load_state_dict(m.state_dict())
+    torch.testing.assert_close(g1(x), feat.mean(dim=(2, 3)))

@@ -96,3 +96,18 @@ def test_walks_in_training_rooms_are_held_out_of_training():
         trained = room_samples(room, every, held=False)
         assert bool((trained.trajectory[:, 0] < 0).all())
         assert trained.num_samples == 15 - (2 if every == 6 else 0)  # k = 5, 11 held out with every = 6
+
+
+def test_seen_split_keeps_its_test_people_and_trains_on_everyone_else():
+    """evaluate.seen.split_room: the first max_eval of residues 9 (test) and 8 (validation); every
+    other static person is in the pool, so a growing room keeps its test people and loses no one."""
+    from nlos_spotlight.evaluate.seen import split_room
+
+    room = toy_scene(n=60)
+    room.target[:, 0] = torch.arange(60, dtype=torch.float32)  # the index, to read back who went where
+    r = split_room(room, period=10, max_eval=3)
+    ids = lambda s: s.target[:, 0].long().tolist()
+    assert ids(r.test) == [9, 19, 29] and ids(r.val) == [8, 18, 28]
+    assert ids(r.pool) == sorted(set(range(60)) - {8, 9, 18, 19, 28, 29})
+    grown = split_room(toy_scene(n=80), period=10, max_eval=3)
+    assert grown.test.num_samples == 3 and grown.pool.num_samples == 74
