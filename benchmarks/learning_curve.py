@@ -6,7 +6,8 @@ held out as test, 10 % as validation), train the NLOS network on the first N peo
 * the oracle spot, N in ``--sizes``, noise-free and with the default capture;
 * the IEN (two-stage: SNR target, then frozen), Adaptive Lighting, center and random spots at the
   largest N with the default capture;
-* ResNet-18 (the paper's backbone) once at the largest N beside the lighter backbone.
+* ResNet-18 (the paper's backbone) once at the largest N beside the lighter backbone;
+* with ``--burst N``, the oracle spot at the largest N with a still capture of N frames averaged.
 
 Each run is resumable and keeps its scores in ``--runs``/KEY/result.json; the table is
 ``--out``/learning-curve.csv (``protocol,capture,policy,people_per_room,posture_accuracy,
@@ -64,6 +65,9 @@ def plan(args) -> list[dict]:
             for c in ("noise-free", "default")]
     runs += [dict(capture="default", policy=p, n=sizes[-1], backbone=args.backbone)
              for p in args.policies.split(",") if p]
+    runs += [dict(capture=f"burst-{args.burst}", policy="oracle", n=sizes[-1], backbone=args.backbone)] \
+        if args.burst > 1 else []
+    runs = [] if args.other_networks_only else runs
     other_n = args.other_networks_size or sizes[-1]
     if args.resnet18:
         runs.append(dict(capture="default", policy="oracle", n=other_n, backbone="resnet18"))
@@ -73,7 +77,9 @@ def plan(args) -> list[dict]:
 
 def run_one(args, rooms, spec: dict, seed: int):
     cfg = base_config(args, seed, spec["backbone"], len(rooms))
-    cfg = dataclasses.replace(cfg, sensor_noise=spec["capture"] == "default")
+    cfg = dataclasses.replace(cfg, sensor_noise=spec["capture"] != "noise-free")
+    if spec["capture"].startswith("burst-"):  # a still capture averaging N frames (DESIGN section 6)
+        cfg = dataclasses.replace(cfg, sensor={"burst_frames": int(spec["capture"].split("-")[1])})
     if spec["policy"] == "ien":
         cfg = dataclasses.replace(cfg, policy="ien", spot_steps=args.spot_steps)
     else:
@@ -102,8 +108,8 @@ def main() -> None:
     ap.add_argument("--sizes", default="100,300,1000,3000", help="training people per room")
     ap.add_argument("--policies", default="ien,adaptive,center,random", help="other spots at the largest size")
     ap.add_argument("--backbone", default="resnet10-narrow")
-    ap.add_argument("--stem", default="imagenet", help="stem of the lighter backbone: imagenet (stride 4, ~6x "
-                                                       "faster on CPU) or cifar")
+    ap.add_argument("--stem", default="half", help="stem of the lighter backbone: half (stride 2; the best in "
+                                                   "benchmarks/learning_ablation.py), imagenet (stride 4) or cifar")
     ap.add_argument("--pool-grid", type=int, default=1, help="lighter backbone: last map pooled to g x g cells")
     ap.add_argument("--min-steps", type=int, default=0, help="train at least this many steps at any size")
     ap.add_argument("--resnet18", action="store_true", help="also ResNet-18 once at the largest size")
@@ -111,6 +117,10 @@ def main() -> None:
     ap.add_argument("--baselines", default="", help="baseline networks (e.g. chandran) also run at the largest size")
     ap.add_argument("--other-networks-size", type=int, default=0,
                     help="people per room of the ResNet-18 and baseline runs (default: the largest size)")
+    ap.add_argument("--burst", type=int, default=0,
+                    help="also the oracle spot at the largest size with a still capture of this many frames")
+    ap.add_argument("--other-networks-only", action="store_true",
+                    help="only the ResNet-18 and baseline runs (a second process beside the curve's)")
     ap.add_argument("--epochs", type=float, default=40)
     ap.add_argument("--patience", type=int, default=8)
     ap.add_argument("--batch", type=int, default=64)

@@ -122,7 +122,8 @@ def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs
     """Train ``cfg`` on the first ``n`` pool people of every room for about ``epochs`` passes, then score.
 
     Resumable: a finished run's ``result.json`` is returned as is; an interrupted one resumes from
-    its checkpoint. Validation every epoch picks the best weights (patience from ``cfg``).
+    its checkpoint. Validation every epoch, or every 1/25 of the run where epochs are shorter, picks
+    the best weights (patience from ``cfg``, counted in validation passes).
     """
     import time
 
@@ -133,8 +134,9 @@ def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs
     t0 = time.perf_counter()
     train = [r.pool.subset(torch.arange(min(n, r.pool.num_samples))) for r in rooms]
     per_epoch = max(1, sum(t.num_samples for t in train) // cfg.batch_size)
-    cfg = dataclasses.replace(cfg, steps=max(1, round(epochs * per_epoch)), eval_every=per_epoch,
-                              ckpt_every=per_epoch, log_every=per_epoch)
+    steps = max(1, round(epochs * per_epoch))
+    every = max(per_epoch, steps // 25)  # small N: an epoch is a few steps; validate ~25 times a run
+    cfg = dataclasses.replace(cfg, steps=steps, eval_every=every, ckpt_every=every, log_every=every)
     (out / "config.json").write_text(json.dumps({"train": cfg.to_dict(), "people_per_room": n,
                                                  "epochs": epochs}, indent=1))
     tr = Trainer(cfg, train, out, val_scenes=[r.val for r in rooms])
