@@ -29,9 +29,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from nlos_spotlight.evaluate.seen import run_seen, split_room
+from nlos_spotlight.evaluate.seen import run_seen, seen_config, split_room
 from nlos_spotlight.models.baselines import BASELINES
-from nlos_spotlight.models.nlos_net import NLOSNetConfig
 from nlos_spotlight.train.config import TrainConfig
 from nlos_spotlight.train.scenes import load_scene_tensors, split_ids
 
@@ -40,19 +39,14 @@ COLUMNS = ["protocol", "capture", "policy", "people_per_room", "posture_accuracy
 
 
 def base_config(args, seed: int, backbone: str, rooms: int) -> TrainConfig:
-    """Our network with ``backbone`` (ResNet-18 with its small-image stem, the lighter one with
-    ``--stem`` and ``--pool-grid``), or a baseline network of ``models.registry.NETWORKS`` by name.
-
-    Every batch mixes all rooms (``scenes_per_step``): with one room per batch, batch norm trains on
-    one room's statistics and tests on the running mix of all (``benchmarks/learning_ablation.py``:
-    66 -> 32 cm at 500 people in two rooms)."""
-    arch = backbone if backbone in BASELINES else "resnet18"
-    light = arch == "resnet18" and backbone != "resnet18"
-    net = NLOSNetConfig(background_subtract=True, backbone="resnet18" if arch != "resnet18" else backbone,
-                        stem=args.stem if light else "cifar", pool_grid=args.pool_grid if light else 1)
-    return TrainConfig(name="learning-curve", seed=seed, batch_size=args.batch, scenes_per_step=min(rooms, args.batch),
-                       lr=args.lr, lr_schedule="cosine", patience=args.patience, holdout_every=10, net=net,
-                       device="cpu", arch=arch)
+    """The seen-rooms recipe (``evaluate.seen.seen_config``) with our network on ``backbone``
+    (ResNet-18 with its small-image stem, the lighter one with ``--stem`` and ``--pool-grid``), or a
+    baseline network of ``models.registry.NETWORKS`` by name."""
+    if backbone in BASELINES:
+        return seen_config(rooms, seed, arch=backbone, batch=args.batch, lr=args.lr, patience=args.patience)
+    light = backbone != "resnet18"
+    return seen_config(rooms, seed, backbone=backbone, stem=args.stem if light else "cifar",
+                       pool_grid=args.pool_grid if light else 1, batch=args.batch, lr=args.lr, patience=args.patience)
 
 
 def arch_label(backbone: str, stem: str, grid: int = 1) -> str:

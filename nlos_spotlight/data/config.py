@@ -78,6 +78,11 @@ PRESETS = {
                           trajectories_per_test_scene=1, trajectories_per_train_scene=1, trajectory_frames=20,
                           resolution=32, los_vertices=200,
                           person_samples=192, person_quadrature="mc"),  # make demo's 20-minute budget
+    # make demo's seen room: one room, its people by the hundred as image samples (learning that works)
+    "demo-room": DatasetConfig(name="demo-room", train_scenes=1, val_scenes=0, test_scenes=0, samples_per_scene=1000,
+                               transport_samples_per_scene=8, trajectories_per_test_scene=0,
+                               trajectories_per_train_scene=0, resolution=32, los_vertices=200,
+                               person_samples=192, person_quadrature="mc"),
     "small": DatasetConfig(name="small", train_scenes=16, val_scenes=4, test_scenes=6, samples_per_scene=36,
                            trajectories_per_test_scene=2, trajectories_per_train_scene=1, trajectory_frames=30,
                            resolution=32, los_vertices=300),
