@@ -120,7 +120,7 @@ def _step(title: str, argv: list[str]) -> None:
     console.print(f"{title}: {time.perf_counter() - t0:.0f} s")
 
 
-def seen_room(data: Path, out: Path, progress: bool) -> Path:
+def seen_room(data: Path, out: Path, progress: bool, min_steps: int = 600) -> Path:
     """Step 5: the seen-rooms recipe (``evaluate.seen``) on the room of ``data``; writes seen-room.md."""
     from .evaluate.seen import run_seen, seen_config, split_room
     from .train.scenes import load_split
@@ -130,7 +130,7 @@ def seen_room(data: Path, out: Path, progress: bool) -> Path:
     lines = ["| capture | people trained on | posture (6) | upright/sitting/crouching | error | mean answer |",
              "|---|---|---|---|---|---|"]
     for capture, noise in (("noise-free", False), ("default", True)):
-        epochs = max(10.0, 600 * 64 / (n * len(rooms)))  # at least 600 steps of 64
+        epochs = max(10.0, min_steps * 64 / (n * len(rooms)))  # at least min_steps steps of 64
         r = run_seen(seen_config(len(rooms), noise=noise), rooms, n, out / capture, epochs, progress=progress)
         lines.append(f"| {capture} | {n} | {r.posture_accuracy:.1f}% | {r.posture3_accuracy:.1f}% "
                      f"| {r.error_cm:.1f} cm | {r.mean_answer_cm:.1f} cm |")

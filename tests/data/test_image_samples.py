@@ -237,3 +237,22 @@ def test_renderer_columns_for_stored_spots():
     torch.testing.assert_close(got[3], ref["nlos_ambient"], rtol=1e-10, atol=0)
     with pytest.raises(ValueError, match="distinct"):
         r.transport_images(person, t, [1, 1])
+
+
+def test_demo_seen_room_trains_on_the_pool_and_scores_the_test_people(tmp_path):
+    """make demo's step 5 on a 25-person room: the pool (every person but the fixed test and
+    validation people) trains, both captures are scored, and the mean-answer row is the error of
+    the pool's mean position on the test people, computed here independently."""
+    from nlos_spotlight.demo import seen_room
+
+    generate(config(samples_per_scene=27, transport_samples_per_scene=M), tmp_path / "room", progress=False)
+    table = seen_room(tmp_path / "room", tmp_path / "seen", progress=False, min_steps=2).read_text()
+    rows = [line for line in table.splitlines() if line.startswith("| noise-free") or line.startswith("| default")]
+    assert len(rows) == 2 and all("| 21 |" in r for r in rows)  # 25 image people - 2 test - 2 validation
+    s = load_scene_tensors(next((tmp_path / "room" / "scenes").iterdir()), ["normals"], samples="images")
+    k = torch.arange(s.num_samples)
+    test, val = k % 10 == 9, k % 10 == 8
+    mean = s.target[~test & ~val].mean(0)
+    expected = 100 * (s.target[test] - mean).norm(dim=1).mean()
+    assert f"{float(expected):.1f} cm |" in rows[0]
+    assert json.loads((tmp_path / "seen" / "default" / "result.json").read_text())["people_per_room"] == 21
