@@ -181,8 +181,9 @@ def plot(rows: list[dict], path: Path) -> None:
     top = max((r["people_per_room"] for r in rows), default=0)
     for r in rows:
         other_net = not r["arch"].startswith("resnet10")
-        if r["people_per_room"] == top and (r["policy"] != "oracle" or other_net):
-            label = r["policy"] + (f" ({r['arch']})" if other_net else "")
+        burst = r["capture"].startswith("burst")
+        if r["people_per_room"] == top and (r["policy"] != "oracle" or other_net or burst):
+            label = r["policy"] + (f" ({r['arch']})" if other_net else "") + (f", {r['capture']}" if burst else "")
             for a, key in zip(ax, ("posture_accuracy", "posture3_accuracy", "error_cm")):
                 a.scatter([top], [r[key]], marker="x")
                 a.annotate(label, (top, r[key]), fontsize=7)
