@@ -41,6 +41,25 @@ def policy_spots(runs: Path) -> dict[str, list[int]]:
     return {p: s for p, (_, s) in best.items()}
 
 
+def room_renderer(cfg: DatasetConfig, p, data: Path, faces: list[int]):
+    """(builder, scene, renderer) of training room ``p`` with the dataset's settings, spots ``faces``."""
+    b = SceneBuilder(cfg, p, data)
+    scene = generate_room(p.seed, b._room_config()).scene
+    st = np.load(b.dir / "static.npz")
+    settings = RenderSettings(pixel_samples=cfg.pixel_samples, transport_pixel_samples=cfg.transport_pixel_samples,
+                              spot_samples=cfg.spot_samples, person_samples=cfg.person_samples, device="cpu")
+    return b, scene, Renderer(scene, settings, aim_points=st["aim_points"][faces])
+
+
+def seen_test_specs(cfg: DatasetConfig, p, builder, scene, people: int) -> list[dict]:
+    """The first ``people`` test people of ``evaluate.seen`` (image sample k - m with (k - m) % 10
+    == 9, m the room's full-transport people), re-posed from the dataset's deterministic specs."""
+    specs = builder._specs(scene)
+    m = transport_count(cfg, p.split)
+    keep = [k for k in range(m, len(specs)) if (k - m) % 10 == 9 and specs[k]["trajectory"] < 0][:people]
+    return [specs[k] | {"index": k} for k in keep]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", required=True)
@@ -58,19 +77,10 @@ def main() -> None:
     rooms = [p for p in plan(cfg) if p.split == "train"]
     values: dict[str, list[float]] = {p: [] for p in spots}
     for i, p in enumerate(rooms):
-        b = SceneBuilder(cfg, p, data)
-        scene = generate_room(p.seed, b._room_config()).scene
-        st = np.load(b.dir / "static.npz")
-        settings = RenderSettings(pixel_samples=cfg.pixel_samples, transport_pixel_samples=cfg.transport_pixel_samples,
-                                  spot_samples=cfg.spot_samples, person_samples=cfg.person_samples, device="cpu")
         faces = sorted({s[i] for s in spots.values() if s[i] >= 0})
-        r = Renderer(scene, settings, aim_points=st["aim_points"][faces])
+        b, scene, r = room_renderer(cfg, p, data, faces)
         sensor = capture_sensor(r.shape)
-        specs = b._specs(scene)
-        m = transport_count(cfg, p.split)  # image samples start at m: the learning curve's index k - m
-        test = [k for k in range(m, len(specs)) if (k - m) % 10 == 9 and specs[k]["trajectory"] < 0][:args.people]
-        for k in test:
-            spec = specs[k]
+        for spec in seen_test_specs(cfg, p, b, scene, args.people):
             body = posed_body(spec["params"], target_faces=cfg.body_faces)
             person = Person.from_mesh(body, spec["params"].albedo, cfg.person_samples,
                                       getattr(cfg, "person_quadrature", "mc"))

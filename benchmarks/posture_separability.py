@@ -38,15 +38,14 @@ import torch
 from scipy.stats import norm
 
 from nlos_spotlight.data.config import DatasetConfig
-from nlos_spotlight.data.generate import plan, transport_count
-from nlos_spotlight.data.scene_builder import SceneBuilder
+from nlos_spotlight.data.generate import plan
 from nlos_spotlight.evaluate.crb import PERSON
 from nlos_spotlight.render.person import Person
 from nlos_spotlight.render.sensor import auto_exposure, dn_per_radiance, noise_variance_dn
-from nlos_spotlight.render.transport import Renderer, RenderSettings
+from nlos_spotlight.render.transport import Renderer
 from nlos_spotlight.train.imaging import capture_sensor
 from nlos_spotlight.world.body import HEIGHT_RANGE_M, POSTURES, posed_body
-from nlos_spotlight.world.rooms import generate_room
+from position_crb import room_renderer, seen_test_specs
 
 STEPS = {"x": 0.01, "y": 0.01, "facing_deg": 2.0, "height_m": 0.01, "albedo_r": 0.01, "albedo_g": 0.01,
          "albedo_b": 0.01}
@@ -110,24 +109,15 @@ def main() -> None:
     found: dict[str, list[tuple[float, float]]] = {f"{a}/{b}": [] for a, b in pairs}
     snr: list[float] = []
     for p in rooms:
-        b = SceneBuilder(cfg, p, data)
-        spots = json.loads((b.dir / "spots.json").read_text())
-        face = int(spots["snr_top"][0])
-        scene = generate_room(p.seed, b._room_config()).scene
-        st = np.load(b.dir / "static.npz")
-        settings = RenderSettings(pixel_samples=cfg.pixel_samples, transport_pixel_samples=cfg.transport_pixel_samples,
-                                  spot_samples=cfg.spot_samples, person_samples=cfg.person_samples, device="cpu")
-        r = Renderer(scene, settings, aim_points=st["aim_points"][[face]])
+        face = int(json.loads((data / "scenes" / p.id / "spots.json").read_text())["snr_top"][0])
+        b, scene, r = room_renderer(cfg, p, data, [face])
         y = r.spot_vector(0)
         sensor = capture_sensor(r.shape)
         static = r.render(y, None, components=("direct", "ambient")).image.double()
         exposure = auto_exposure(static, sensor)
         k = dn_per_radiance(exposure, sensor)
-        specs = b._specs(scene)
-        m = transport_count(cfg, p.split)
-        test = [i for i in range(m, len(specs)) if (i - m) % 10 == 9 and specs[i]["trajectory"] < 0][:args.people]
-        for i in test:
-            base, t = specs[i]["params"], np.array([*specs[i]["position"], scene.hidden_region.floor_z])
+        for spec in seen_test_specs(cfg, p, b, scene, args.people):
+            base, t = spec["params"], np.array([*spec["position"], scene.hidden_region.floor_z])
             per = {q: dataclasses.replace(base, posture=q) for q in POSTURES}
             mu = {q: light(r, y, per[q], t, cfg) for q in POSTURES}
             jac = {q: jacobian(r, y, per[q], t, cfg) for q in POSTURES}
@@ -140,7 +130,7 @@ def main() -> None:
                     delta = (mu[a] - mu[b2]).reshape(-1)
                 found[f"{a}/{b2}"].append(distances(delta, (jac[a] + jac[b2 if a != b2 else a]) / 2, sigma))
             snr.append(float((mu["standing"].reshape(-1) / sigma).norm()))
-            print(f"room {p.id} person {i}: exposure {exposure:.3f} s, person SNR {snr[-1]:.1f}", flush=True)
+            print(f"room {p.id} person {spec['index']}: exposure {exposure:.3f} s, person SNR {snr[-1]:.1f}", flush=True)
     out = {"person_snr_median": round(float(np.median(snr)), 2), "burst_frames": capture_sensor((1, 1)).burst_frames}
     print(f"person's light over the noise (standing, whitened norm): median {np.median(snr):.1f} over {len(snr)}")
     print(f"{'pair':24s} {'d_known':>9s} {'d_nuisance':>11s} {'error':>7s} {'frames for d=4':>15s}  (medians)")
