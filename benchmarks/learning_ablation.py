@@ -35,8 +35,7 @@ import numpy as np
 import torch
 
 from learning_curve import load_rooms
-from nlos_spotlight.evaluate.seen import run_seen, split_room
-from nlos_spotlight.models.nlos_net import NLOSNetConfig
+from nlos_spotlight.evaluate.seen import run_seen, seen_config, split_room
 from nlos_spotlight.train.config import TrainConfig
 
 COLUMNS = ["variant", "capture", "people_per_room", "min_steps", "rooms", "posture_accuracy", "posture3_accuracy", "error_cm",
@@ -63,11 +62,9 @@ CHANGES = {
 
 
 def base_config(args, seed: int, noise: bool) -> TrainConfig:
-    """The learning curve's recipe under the oracle spot."""
-    net = NLOSNetConfig(background_subtract=True, backbone="resnet10-narrow", stem="imagenet")
-    return TrainConfig(name="learning-ablation", seed=seed, batch_size=args.batch, scenes_per_step=1, lr=args.lr,
-                       lr_schedule="cosine", patience=args.patience, holdout_every=10, net=net, device="cpu",
-                       policy="oracle", sensor_noise=noise)
+    """The learning curve's old recipe under the oracle spot: ``evaluate.seen.seen_config`` with one
+    room per batch and the ImageNet stem."""
+    return seen_config(1, seed, noise, stem="imagenet", batch=args.batch, lr=args.lr, patience=args.patience)
 
 
 def run_variant(args, rooms, variant: str, seed: int) -> dict:
