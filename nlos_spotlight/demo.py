@@ -5,7 +5,7 @@
 3. ``nlos train demo`` (IEN + ResNet-18 end to end through the stored transport);
 4. ``nlos evaluate`` (every baseline trained and compared on held-out rooms: Tables 1-3, Figs. 5-7);
 5. one room with a thousand people (``nlos generate demo-room``), the seen-rooms recipe trained on
-   800 of them and scored on 100 others, noise-free and with the default capture: learning that
+   about 800 of them and scored on 100 others, noise-free and with the default capture: learning that
    works, in the setting of a user who scans their own room.
 
 Every step resumes, so an interrupted demo continues where it stopped.
