@@ -77,11 +77,8 @@ def run_variant(args, rooms, variant: str, seed: int) -> dict:
         cfg = CHANGES[p](cfg, rooms)
     key = f"{args.capture}-{args.n}-{variant}-s{seed}" + (f"-min{args.min_steps}" if args.min_steps else "")
     groups = [[r] for r in rooms] if "per-room" in parts else [rooms]
-    res = []
-    for i, g in enumerate(groups):  # at least --min-steps steps of --batch, however few the people
-        epochs = max(args.epochs, args.min_steps * args.batch / (args.n * len(g)))
-        res.append(run_seen(cfg, g, args.n, Path(args.runs) / (key + (f"-room{i}" if len(groups) > 1 else "")),
-                            epochs, progress=not args.quiet))
+    res = [run_seen(cfg, g, args.n, Path(args.runs) / (key + (f"-room{i}" if len(groups) > 1 else "")), args.epochs,
+                    progress=not args.quiet, min_steps=args.min_steps) for i, g in enumerate(groups)]
     w = np.array([sum(r.test.num_samples for r in g) for g in groups], float)
     avg = lambda k: float(np.average([getattr(r, k) for r in res], weights=w))
     return {"variant": variant, "capture": args.capture, "people_per_room": args.n, "min_steps": args.min_steps,

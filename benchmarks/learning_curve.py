@@ -81,8 +81,8 @@ def run_one(args, rooms, spec: dict, seed: int):
     label = arch_label(spec["backbone"], args.stem, args.pool_grid).replace("/", "-")
     key = f"{spec['capture']}-{spec['policy']}-{spec['n']}-{label}-s{seed}"
     epochs = args.epochs * (args.resnet18_epoch_scale if spec["backbone"] == "resnet18" else 1.0)
-    epochs = max(epochs, args.min_steps * args.batch / (spec["n"] * len(rooms)))  # small N: enough steps
-    return run_seen(cfg, rooms, spec["n"], Path(args.runs) / key, epochs, progress=not args.quiet)
+    return run_seen(cfg, rooms, spec["n"], Path(args.runs) / key, epochs, progress=not args.quiet,
+                    min_steps=args.min_steps)
 
 
 def load_rooms(data: Path) -> list:

@@ -130,8 +130,8 @@ def seen_room(data: Path, out: Path, progress: bool, min_steps: int = 600) -> Pa
     lines = ["| capture | people trained on | posture (6) | upright/sitting/crouching | error | mean answer |",
              "|---|---|---|---|---|---|"]
     for capture, noise in (("noise-free", False), ("default", True)):
-        epochs = max(10.0, min_steps * 64 / (n * len(rooms)))  # at least min_steps steps of 64
-        r = run_seen(seen_config(len(rooms), noise=noise), rooms, n, out / capture, epochs, progress=progress)
+        r = run_seen(seen_config(len(rooms), noise=noise), rooms, n, out / capture, 10.0, progress=progress,
+                     min_steps=min_steps)
         lines.append(f"| {capture} | {n} | {r.posture_accuracy:.1f}% | {r.posture3_accuracy:.1f}% "
                      f"| {r.error_cm:.1f} cm | {r.mean_answer_cm:.1f} cm |")
     table = "\n".join(lines)

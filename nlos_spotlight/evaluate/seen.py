@@ -134,8 +134,9 @@ def mean_answer_cm(rooms: list[RoomSplit]) -> float:
 
 
 def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs: float,
-             progress: bool = False) -> SeenResult:
-    """Train ``cfg`` on the first ``n`` pool people of every room for about ``epochs`` passes, then score.
+             progress: bool = False, min_steps: int = 0) -> SeenResult:
+    """Train ``cfg`` on the first ``n`` pool people of every room for about ``epochs`` passes (more
+    where that is fewer than ``min_steps`` steps: small N), then score.
 
     Resumable: a finished run's ``result.json`` is returned as is; an interrupted one resumes from
     its checkpoint. Validation every epoch, or every 1/25 of the run where epochs are shorter, picks
@@ -148,6 +149,7 @@ def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs
     if done.exists():
         return SeenResult(**json.loads(done.read_text()))
     t0 = time.perf_counter()
+    epochs = max(epochs, min_steps * cfg.batch_size / (n * len(rooms)))
     train = [r.pool.subset(torch.arange(min(n, r.pool.num_samples))) for r in rooms]
     per_epoch = max(1, sum(t.num_samples for t in train) // cfg.batch_size)
     steps = max(1, round(epochs * per_epoch))
