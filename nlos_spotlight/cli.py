@@ -7,6 +7,7 @@ code 2; a bare traceback only appears with ``NLOS_DEBUG=1``.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import sys
 from pathlib import Path
@@ -14,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import NlosError
+from .paths import input_dir, output_dir, output_file
 
 
 def _point(text: str, flag: str = "--spot-point") -> np.ndarray:
@@ -38,9 +40,13 @@ def cmd_render(args: argparse.Namespace) -> None:
     bad = [c for c in comps if c not in COMPONENTS]
     if bad:
         raise NlosError(f"--components: unknown component '{bad[0]}' (choose from {', '.join(COMPONENTS)})")
-    out = Path(args.out)
+    out = output_file(args.out, "--out")
     if out.suffix != ".npy":
         raise NlosError(f"--out: expected a .npy path, got {out}")
+    for flag in ("pixel_samples", "transport_samples", "person_samples", "spot_samples"):
+        v = getattr(args, flag)
+        if not 1 <= v <= 100_000:
+            raise NlosError(f"--{flag.replace('_', '-')}: expected a count from 1 to 100000, got {v}")
     scene = load_scene(args.scene_dir, human_mesh=args.human)
     if args.spot_point is not None:
         aim = _point(args.spot_point)
@@ -49,6 +55,8 @@ def cmd_render(args: argparse.Namespace) -> None:
         if not 0 <= args.spot_face < n:
             raise NlosError(f"--spot-face: {args.spot_face} out of range (scene has {n} faces)")
         aim = scene.static_mesh()[0].centroids()[args.spot_face]
+    if np.linalg.norm(aim - scene.projector.position) < 1e-6:
+        raise NlosError(f"--spot-point: {aim.tolist()} is the projector's own position; aim at a surface")
     settings = RenderSettings(pixel_samples=args.pixel_samples, transport_pixel_samples=args.transport_samples,
                               person_samples=args.person_samples, spot_samples=args.spot_samples)
     r = Renderer(scene, settings, aim_points=aim[None])
@@ -69,9 +77,12 @@ def cmd_render(args: argparse.Namespace) -> None:
         image = sensor_capture(image.clamp(min=0), exposure, cfg, generator=gen).radiance
     arr = image.detach().cpu().numpy().astype(np.float32)
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.name + ".tmp.npy")
-    np.save(tmp, arr)
-    tmp.replace(out)
+    tmp = out.with_name(f".{out.name}.tmp.npy")
+    try:
+        np.save(tmp, arr)
+        tmp.replace(out)
+    finally:
+        tmp.unlink(missing_ok=True)
     from .console import console
 
     sums = ", ".join(f"{k}={float(v.sum()):.4g}" for k, v in result.components.items())
@@ -93,11 +104,29 @@ def cmd_generate(args: argparse.Namespace) -> None:
 
     cfg = load_config(args.config)
     if args.seed is not None:
+        if args.seed < 0:
+            raise NlosError(f"--seed: expected a non-negative integer, got {args.seed}")
         cfg.seed = args.seed
-    rec = generate(cfg, args.out, _shard(args.shard), progress=not args.quiet)
+    rec = generate(cfg, output_dir(args.out, "--out"), _shard(args.shard), progress=not args.quiet)
     manifest = Path(args.out) / "manifest.json"
     state = f"complete: {manifest}" if manifest.exists() else "other shards pending (manifest written by the last)"
     console.print(f"shard {rec['shard']}: {len(rec['scenes'])} scenes in {rec['seconds']:.1f} s; dataset {state}")
+
+
+def cmd_verify(args: argparse.Namespace) -> None:
+    from .console import console
+    from .data.verify import dataset_problems
+
+    data = Path(args.data_dir)
+    if not data.is_dir():
+        raise NlosError(f"{data}: no such dataset directory")
+    problems, n = dataset_problems(data, shapes=not args.digests_only)
+    for path, why in problems:
+        print(f"bad: {path}: {why}", file=sys.stderr)
+    if problems:
+        raise NlosError(f"{data}: {len(problems)} bad file{'s' * (len(problems) != 1)} (rerun nlos generate "
+                        "with the same config to render them again)")
+    console.print(f"{data}: {n} files match their digests and shapes; content_sha256 matches the manifest")
 
 
 def cmd_train(args: argparse.Namespace) -> None:
@@ -107,8 +136,11 @@ def cmd_train(args: argparse.Namespace) -> None:
 
     cfg = load_train_config(args.config)
     if args.seed is not None:
+        if args.seed < 0:
+            raise NlosError(f"--seed: expected a non-negative integer, got {args.seed}")
         cfg.seed = args.seed
-    tr = train(cfg, args.data, args.out, resume=args.resume, progress=not args.quiet)
+    tr = train(cfg, input_dir(args.data, "--data", "dataset directory"), output_dir(args.out, "--out"),
+               resume=args.resume, progress=not args.quiet)
     if tr.rank == 0:
         console.print(f"trained {tr.step} steps; run in {Path(args.out).resolve()} (config.json, metrics.csv, final.pt)")
 
@@ -121,6 +153,8 @@ def cmd_evaluate(args: argparse.Namespace) -> None:
     from .evaluate.write import write_all
 
     methods = [m.strip() for m in args.methods.split(",")] if args.methods else None
+    input_dir(args.data, "--data", "dataset directory")
+    output_dir(args.out, "--out")
     ev = run_all(Path(args.run_dir), Path(args.data), args.seeds, methods, progress=not args.quiet)
     command = "nlos " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:] else "nlos evaluate"
     md = write_all(ev, Path(args.data), Path(args.run_dir), Path(args.out), command)
@@ -137,6 +171,9 @@ def cmd_spotlight(args: argparse.Namespace) -> None:
     checkpoint = args.checkpoint or os.environ.get("NLOS_CHECKPOINT")
     if not checkpoint:
         raise NlosError("no trained run: pass --checkpoint RUN_OR_FILE (or set NLOS_CHECKPOINT)")
+    for flag in ("json", "png"):
+        if getattr(args, flag):
+            output_file(getattr(args, flag), f"--{flag}")
     models = load_trained(checkpoint)
     setup = load_setup(args.mesh_or_scene, pt["camera_position"], pt["camera_look_at"], pt["projector_position"],
                        args.up)
@@ -152,24 +189,58 @@ def cmd_spotlight(args: argparse.Namespace) -> None:
         console.print(f"wrote {args.png}")
 
 
+def cmd_fit(args: argparse.Namespace) -> None:
+    from .fit.config import PRESETS
+    from .fit.run import fit_room
+
+    if args.preset not in PRESETS:
+        raise NlosError(f"--preset: expected one of {', '.join(PRESETS)}, got {args.preset!r}")
+    changes = {k: getattr(args, k) for k in ("people", "policy", "seed", "burst", "workers")
+               if getattr(args, k) is not None}
+    if "burst" in changes:
+        changes["burst_frames"] = changes.pop("burst")
+    if args.checkpoint:
+        changes["checkpoint"] = args.checkpoint
+    cfg = dataclasses.replace(PRESETS[args.preset], **changes)
+    flags = {k: getattr(args, k) for k in ("camera_position", "camera_look_at", "projector_position")
+             if getattr(args, k) is not None}
+    flags = {k: _point(v, "--" + k.replace("_", "-")).tolist() for k, v in flags.items()}
+    if args.hidden_region is not None:
+        flags["hidden_region"] = args.hidden_region
+    if args.up is not None:
+        flags["up"] = args.up
+    fit_room(args.room, output_dir(args.out, "--out"), cfg, flags, resume=args.resume, progress=not args.quiet)
+
+
 def cmd_predict(args: argparse.Namespace) -> None:
     from .apps.images import load_frames
     from .apps.predict import predict, print_table, write_csv, write_json
     from .console import console
+    from .fit.model import load_room_model
     from .train.checkpoint import load_trained
 
+    for flag in ("csv", "json", "plot"):
+        if getattr(args, flag):
+            output_file(getattr(args, flag), f"--{flag}")
+    room = load_room_model(args.checkpoint)
     models = load_trained(args.checkpoint)
-    frames = load_frames(args.inputs, models.image_shape, args.linear, args.fps)
+    if args.burst is not None and args.burst < 1:
+        raise NlosError(f"--burst: expected a positive frame count, got {args.burst}")
+    frames = load_frames(args.inputs, models.image_shape, args.linear, args.fps).bursts(args.burst or 1)
     background = None
-    if args.background:
-        background = load_frames([args.background], models.image_shape, args.linear).images
-        if len(background) != 1:
-            raise NlosError(f"--background: expected one image, got {len(background)} frames")
-        background = background[0]
+    if args.background:  # an empty-room burst: its frames averaged
+        background = load_frames([args.background], models.image_shape, args.linear).images.mean(axis=0)
     if args.batch_size < 1:
         raise NlosError(f"--batch-size: expected a positive count, got {args.batch_size}")
+    if room is not None:
+        console.print(room.describe())
+        if (args.burst or 1) != room.burst_frames:
+            console.print(f"note: the model was trained on bursts of {room.burst_frames} frames; pass --burst "
+                          f"{room.burst_frames} to average consecutive frames of a still person")
     res = predict(models, frames, smooth=not args.no_smooth, window=args.smooth_window, order=args.smooth_order,
                   batch_size=args.batch_size, background=background)
+    if room is not None:
+        res.room_xy = room.room_xy(res.xy)
     aspects = {round(w / h, 2) for h, w in frames.native_shapes}
     if aspects - {round(models.image_shape[1] / models.image_shape[0], 2)}:
         console.print(f"note: inputs of size {frames.native_shapes} (H, W) were stretched to the network's "
@@ -208,8 +279,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", required=True, help="output .npy, float32 (height, width, 3)")
     r.add_argument("--pixel-samples", type=int, default=4, help="n x n sub-samples per pixel (per-scene terms)")
     r.add_argument("--transport-samples", type=int, default=2, help="n x n sub-samples per pixel (person terms)")
-    r.add_argument("--person-samples", type=int, default=1024)
-    r.add_argument("--spot-samples", type=int, default=256)
+    r.add_argument("--person-samples", type=int, default=1024, help="quadrature points on the person's body")
+    r.add_argument("--spot-samples", type=int, default=256, help="points sampling the spot's footprint")
     r.set_defaults(func=cmd_render)
     g = sub.add_parser("generate", help="generate a synthetic dataset (deterministic, sharded, resumable)")
     g.add_argument("config", help="preset (tiny, demo, demo-room, small, paper) or a YAML file of DatasetConfig fields")
@@ -218,6 +289,10 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--seed", type=int, help="override the config's master seed")
     g.add_argument("--quiet", action="store_true", help="no progress bar (also NLOS_QUIET=1 or CI=true)")
     g.set_defaults(func=cmd_generate)
+    v = sub.add_parser("verify", help="check a dataset: every file's digest and every array's shape")
+    v.add_argument("data_dir", help="dataset directory from nlos generate")
+    v.add_argument("--digests-only", action="store_true", help="skip reading the arrays (faster)")
+    v.set_defaults(func=cmd_verify)
     t = sub.add_parser("train", help="train the IEN and the NLOS network end to end (torchrun for several processes)")
     t.add_argument("config", help="preset (tiny, demo, small, paper) or a YAML file of TrainConfig fields")
     t.add_argument("--data", required=True, help="dataset directory from nlos generate")
@@ -250,8 +325,29 @@ def build_parser() -> argparse.ArgumentParser:
                                                        "(default: the training dataset's, else 800)")
     s.add_argument("--up", help="a bare mesh's up axis: x, y, z, -x, -y, -z (default: detected)")
     s.set_defaults(func=cmd_spotlight)
+    f = sub.add_parser("fit", help="a room (scan or scene) in, a trained room model out: spot, synthetic "
+                                   "people, network, report")
+    f.add_argument("room", help="nlos-scene/1 directory or a bare PLY/OBJ scan (meters, any up axis)")
+    f.add_argument("--out", required=True, help="room model directory (final.pt, report.json, report.html)")
+    f.add_argument("--camera-position", help="X,Y,Z (m, z-up frame): default derived from the mesh bounds, printed")
+    f.add_argument("--camera-look-at", help="X,Y,Z (m), with --camera-position")
+    f.add_argument("--projector-position", help="X,Y,Z (m): default 0.3 m right of and 0.2 m below the camera")
+    f.add_argument("--hidden-region", help="XMIN,YMIN,XMAX,YMAX (m, floor of the z-up frame) where the person "
+                                           "may be (default: the largest hidden floor rectangle found)")
+    f.add_argument("--up", help="a bare scan's up axis: x, y, z, -x, -y, -z (default: detected)")
+    f.add_argument("--people", type=int, help="synthetic training people (default 3000)")
+    f.add_argument("--policy", help="spot policy: oracle (default), ien (with --checkpoint), adaptive, center, random")
+    f.add_argument("--checkpoint", help="trained run whose IEN picks the spot (--policy ien)")
+    f.add_argument("--burst", type=int, help="frames averaged per capture (default 16)")
+    f.add_argument("--workers", type=int, help="processes rendering people (default 2)")
+    f.add_argument("--preset", default="default", help="default, or tiny (tens of people: a first look, tests)")
+    f.add_argument("--seed", type=int, help="master seed (default 0)")
+    f.add_argument("--resume", action="store_true", help="continue the fit in --out")
+    f.add_argument("--quiet", action="store_true", help="no progress bar (also NLOS_QUIET=1 or CI=true)")
+    f.set_defaults(func=cmd_fit)
     q = sub.add_parser("predict", help="position and posture of the hidden person from photos, a stack or a video")
-    q.add_argument("checkpoint", help="trained run: final.pt / checkpoint.pt or the run directory")
+    q.add_argument("checkpoint", help="trained run: final.pt / checkpoint.pt, the run directory, or a room model "
+                                      "(nlos fit --out)")
     q.add_argument("inputs", nargs="+", metavar="IMAGES_OR_VIDEO",
                    help=".npy (H,W,3) or (N,H,W,3) linear radiance, PNG/JPEG (8/16-bit sRGB), a directory, "
                         "a numbered pattern (img_%%04d.png), or one video (needs imageio)")
@@ -264,14 +360,17 @@ def build_parser() -> argparse.ArgumentParser:
                                                      "(default: about a fifth of the frames, at least 5)")
     q.add_argument("--smooth-order", type=int, default=2, help="Savitzky-Golay polynomial order (default 2)")
     q.add_argument("--no-smooth", action="store_true", help="no smoothed trajectory")
-    q.add_argument("--background", help="empty-room image, for networks trained with background subtraction")
+    q.add_argument("--background", help="empty-room image or burst (frames averaged), for networks trained with "
+                                        "background subtraction (room models are)")
+    q.add_argument("--burst", type=int, help="average consecutive groups of this many frames (a still capture's "
+                                             "burst; a room model says its length)")
     q.add_argument("--batch-size", type=int, default=64, help="frames per forward pass")
     q.add_argument("--max-rows", type=int, default=40, help="frames shown on screen (all go to --csv/--json)")
     q.set_defaults(func=cmd_predict)
     return p
 
 
-_POINT_FLAGS = ("--spot-point", "--camera-position", "--camera-look-at", "--projector-position")
+_POINT_FLAGS = ("--spot-point", "--camera-position", "--camera-look-at", "--projector-position", "--hidden-region")
 """Flags whose X,Y,Z value may start with a minus sign."""
 
 
@@ -293,9 +392,17 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args.func(args)
     except NlosError as exc:
+        if os.environ.get("NLOS_DEBUG"):
+            raise
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    except (OSError, ValueError, RuntimeError, MemoryError) as exc:
+    except OSError as exc:  # a path the checks could not foresee (a full disk, a vanished directory)
+        if os.environ.get("NLOS_DEBUG"):
+            raise
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"error: {where}{exc.strerror or type(exc).__name__}", file=sys.stderr)
+        return 2
+    except (ValueError, RuntimeError, MemoryError) as exc:
         if os.environ.get("NLOS_DEBUG"):
             raise
         print(f"error: {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}", file=sys.stderr)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -97,3 +98,38 @@ def test_render_hand_written_scene(tmp_path):
     clip = z.max()
     assert (z == clip).any() and img.max() > clip
     assert z.shape == (64, 64, 3) and not np.allclose(z, img) and abs(z.sum() / np.minimum(img, clip).sum() - 1) < 0.05
+
+
+def test_bad_paths_and_values_name_themselves(tmp_path, capsys, monkeypatch):
+    """Bad output paths and sample counts: one line naming the path or flag, exit 2, nothing left
+    behind; NLOS_DEBUG=1 shows the traceback instead."""
+    import pytest
+
+    from nlos_spotlight.cli import main
+    from nlos_spotlight.errors import NlosError
+    from nlos_spotlight.scene.examples import SPOT_TARGET, corner_scene
+    from nlos_spotlight.scene.io import save_scene
+
+    scene = tmp_path / "scene"
+    save_scene(corner_scene("diffuse_corner", resolution=4), scene)
+    aim = ",".join(str(v) for v in SPOT_TARGET)
+    (tmp_path / "a_dir.npy").mkdir()
+    (tmp_path / "file").write_text("x")
+    base = ["render", str(scene), "--spot-point", aim, "--person-samples", "8", "--spot-samples", "4"]
+    cases = [(["--out", str(tmp_path / "a_dir.npy")], "is a directory"),
+             (["--out", str(tmp_path / "file" / "x.npy")], "which is a file"),
+             (["--out", str(tmp_path / "x.npy"), "--pixel-samples", "0"], "--pixel-samples"),
+             (["--out", str(tmp_path / "x.npy"), "--spot-samples", "-3"], "--spot-samples")]
+    if os.geteuid() != 0:  # root may write anywhere
+        cases.append((["--out", "/proc/x.npy"], "/proc/x.npy"))
+    for extra, words in cases:
+        assert main(base + extra) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("error:") and "\n" not in err and words in err, err
+    proj = ",".join(str(v) for v in corner_scene("diffuse_corner").projector.position)
+    assert main(["render", str(scene), "--spot-point", proj, "--out", str(tmp_path / "y.npy")]) == 2
+    assert "projector's own position" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_dir.npy", "file", "scene"]
+    monkeypatch.setenv("NLOS_DEBUG", "1")
+    with pytest.raises(NlosError):
+        main(base + ["--out", str(tmp_path / "a_dir.npy")])

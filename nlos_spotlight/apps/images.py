@@ -268,6 +268,20 @@ class Frames:
     def __len__(self) -> int:
         return len(self.images)
 
+    def bursts(self, k: int) -> "Frames":
+        """Consecutive groups of ``k`` frames averaged (a still capture's burst); k must divide N."""
+        if k < 1:
+            raise NlosError(f"--burst: expected a positive frame count, got {k}")
+        if len(self) % k:
+            raise NlosError(f"--burst {k}: {len(self)} frames do not split into bursts of {k}")
+        if k == 1:
+            return self
+        n = len(self) // k
+        images = self.images.reshape(n, k, *self.images.shape[1:]).mean(axis=1, dtype=np.float64)
+        sources = [f"{self.sources[i * k]}..{self.sources[i * k + k - 1]}" for i in range(n)]
+        return Frames(images.astype(np.float32), sources, None if self.fps is None else self.fps / k,
+                      list(self.native_shapes))
+
 
 def _natural_key(p: Path) -> list:
     """Sort key comparing digit runs as numbers: frame2 < frame10."""

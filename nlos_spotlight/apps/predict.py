@@ -1,9 +1,10 @@
 """``nlos predict``: the hidden person's floor position and posture from photographs or a video.
 
 Each frame (see :mod:`.images` for the accepted inputs and how they are linearized and resampled)
-goes through the trained NLOS network: position (x, y) in meters in the camera's ground frame
-(x along the horizontal viewing direction, y to its left, from the point on the floor below the
-camera; the frame the network was trained in) and the six posture probabilities (softmax of the
+goes through the trained NLOS network: position (x, y) in meters in the region frame the network
+was trained in (``train.scenes.ground_frame``: x along the camera's horizontal viewing direction, y
+to its left, from the center of the hidden region; a room model from ``nlos fit`` also gives x, y
+in the room's own z-up coordinates) and the six posture probabilities (softmax of the
 logits). A sequence of at least :data:`MIN_SMOOTH_FRAMES` frames also gets a Savitzky-Golay
 smoothed trajectory (:func:`nlos_spotlight.evaluate.tracking.smooth_trajectory`).
 """
@@ -36,7 +37,7 @@ class Predictions:
     sources: list[str]
     """(N,) where each frame came from."""
     xy: np.ndarray
-    """(N, 2) float64 position, m, camera ground frame: along the view, to its left."""
+    """(N, 2) float64 position, m, region frame: along the view, to its left, from the region's center."""
     probabilities: np.ndarray
     """(N, 6) float64 posture probabilities in :data:`POSTURES` order; rows sum to 1."""
     times: np.ndarray | None
@@ -51,6 +52,8 @@ class Predictions:
     """The checkpoint file used."""
     image_shape: tuple[int, int] = (0, 0)
     """(H, W) every frame was resampled to."""
+    room_xy: np.ndarray | None = None
+    """(N, 2) the positions in the room's z-up frame (room models from ``nlos fit``), else None."""
 
     def __len__(self) -> int:
         return len(self.sources)
@@ -65,6 +68,8 @@ class Predictions:
         for i, src in enumerate(self.sources):
             row = {"frame": i, "source": src, "time_s": None if self.times is None else float(self.times[i]),
                    "x_m": float(self.xy[i, 0]), "y_m": float(self.xy[i, 1]), "posture": self.postures[i],
+                **({} if self.room_xy is None else {"x_room_m": float(self.room_xy[i, 0]),
+                                                    "y_room_m": float(self.room_xy[i, 1])}),
                    "probabilities": {p: float(v) for p, v in zip(POSTURES, self.probabilities[i])}}
             if self.smoothed is not None:
                 row["x_smooth_m"], row["y_smooth_m"] = float(self.smoothed[i, 0]), float(self.smoothed[i, 1])
@@ -73,8 +78,9 @@ class Predictions:
             "method": "Savitzky-Golay (scipy.signal.savgol_filter, mode='interp')",
             "window_frames": self.window, "order": self.order}
         return {"checkpoint": self.checkpoint, "image_shape": list(self.image_shape),
-                "frame": "camera ground frame: x along the horizontal viewing direction, y to its left, "
-                         "meters from the floor point below the camera",
+                "frame": "region frame: x along the camera's horizontal viewing direction, y to its left, "
+                         "meters from the center of the hidden region; x_room_m, y_room_m (room models): "
+                         "the room's z-up coordinates",
                 "postures": list(POSTURES), "smoothing": smoothing, "frames": frames}
 
 
@@ -142,7 +148,7 @@ def _replace(path: Path, write) -> None:
 def write_csv(p: Predictions, path: Path) -> None:
     """One row per frame: frame, source, time_s, x_m, y_m, posture, p_<posture> x6, x/y_smooth_m."""
     header = ["frame", "source", "time_s", "x_m", "y_m", "posture", *[f"p_{n}" for n in POSTURES],
-              "x_smooth_m", "y_smooth_m"]
+              "x_smooth_m", "y_smooth_m", "x_room_m", "y_room_m"]
 
     def write(tmp: Path) -> None:
         with tmp.open("w", newline="") as f:
@@ -151,8 +157,9 @@ def write_csv(p: Predictions, path: Path) -> None:
             for i, src in enumerate(p.sources):
                 t = "" if p.times is None else f"{p.times[i]:.6g}"
                 sm = ["", ""] if p.smoothed is None else [f"{v:.6f}" for v in p.smoothed[i]]
+                room = ["", ""] if p.room_xy is None else [f"{v:.6f}" for v in p.room_xy[i]]
                 w.writerow([i, src, t, f"{p.xy[i, 0]:.6f}", f"{p.xy[i, 1]:.6f}", p.postures[i],
-                            *[f"{v:.6f}" for v in p.probabilities[i]], *sm])
+                            *[f"{v:.6f}" for v in p.probabilities[i]], *sm, *room])
 
     _replace(path, write)
 
@@ -180,6 +187,9 @@ def print_table(p: Predictions, console, max_rows: int = 40) -> None:
     if p.smoothed is not None:
         t.add_column("x sm", justify="right")
         t.add_column("y sm", justify="right")
+    if p.room_xy is not None:
+        t.add_column("x room", justify="right")
+        t.add_column("y room", justify="right")
     t.add_column("posture")
     for name in POSTURES:
         t.add_column(SHORT_NAMES[name], justify="right")
@@ -193,6 +203,8 @@ def print_table(p: Predictions, console, max_rows: int = 40) -> None:
         cells = [str(i), p.sources[i], f"{p.xy[i, 0]:.3f}", f"{p.xy[i, 1]:.3f}"]
         if p.smoothed is not None:
             cells += [f"{p.smoothed[i, 0]:.3f}", f"{p.smoothed[i, 1]:.3f}"]
+        if p.room_xy is not None:
+            cells += [f"{p.room_xy[i, 0]:.2f}", f"{p.room_xy[i, 1]:.2f}"]
         cells.append(p.postures[i])
         cells += [f"{v:.2f}".removeprefix("0") for v in p.probabilities[i]]  # .17: fits 80 columns
         t.add_row(*cells)

@@ -57,6 +57,11 @@ class DatasetConfig:
     """Renderer: body sampling rule, 'faces' (per-face centroid rule, >= 1 sample a face) or 'mc' (render/person.py)."""
     families: list[str] = field(default_factory=list)
     """Room layout families to cycle through (empty: all)."""
+    extra_spots: list[int] = field(default_factory=list)
+    """Candidates every room also stores for its image samples (``nlos fit``: a trained IEN's choice)."""
+    room: str = ""
+    """An nlos-scene/1 directory every scene is built on instead of a procedural room (``nlos fit``:
+    a user's room; its people differ per scene); empty: procedural rooms."""
 
     @property
     def num_scenes(self) -> int:
@@ -123,13 +128,20 @@ def load_config(spec: str) -> DatasetConfig:
         if not isinstance(v, expected) or isinstance(v, bool) != (expected is bool):
             raise NlosError(f"{path}: {k} must be {expected.__name__}, got {v!r}")
         setattr(cfg, k, v)
-    _validate(cfg, str(path))
+    validate(cfg, str(path))
     return cfg
 
 
-def _validate(cfg: DatasetConfig, where: str) -> None:
-    if cfg.test_scenes < 0 or cfg.val_scenes < 0:
-        raise NlosError(f"{where}: val_scenes and test_scenes must be at least 0")
+def validate(cfg: DatasetConfig, where: str) -> None:
+    """Raise one NlosError naming the first bad field (``where``: the file or 'config')."""
+    for k in ("seed", "val_scenes", "test_scenes", "trajectories_per_test_scene", "trajectories_per_train_scene"):
+        if getattr(cfg, k) < 0:
+            raise NlosError(f"{where}: {k} must be at least 0, got {getattr(cfg, k)}")
+    for k in ("transport_rank", "trajectory_frames"):
+        if getattr(cfg, k) < 1:
+            raise NlosError(f"{where}: {k} must be at least 1, got {getattr(cfg, k)}")
+    if not 0 < cfg.frame_rate_hz < 1e4:
+        raise NlosError(f"{where}: frame_rate_hz must be a positive number below 10000, got {cfg.frame_rate_hz}")
     for k in ("train_scenes", "samples_per_scene", "resolution", "los_vertices", "spot_samples",
               "person_samples", "pixel_samples", "transport_pixel_samples", "body_faces"):
         if getattr(cfg, k) < 1:

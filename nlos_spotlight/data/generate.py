@@ -42,9 +42,16 @@ class ScenePlan:
         return scene_id(self.split, self.index)
 
 
+ROOM_FAMILY = "room"
+"""The family recorded for scenes built on a given room (``DatasetConfig.room``)."""
+
+
 def plan(cfg: DatasetConfig) -> list[ScenePlan]:
     from ..world.rooms import FAMILIES
 
+    if cfg.room:
+        return [ScenePlan(i, cfg.split_of(i), int(s), ROOM_FAMILY)
+                for i, s in enumerate(np.random.SeedSequence(cfg.seed).generate_state(cfg.num_scenes))]
     fams = cfg.families or list(FAMILIES)
     unknown = [f for f in fams if f not in FAMILIES]
     if unknown:
@@ -65,8 +72,9 @@ def versions() -> dict[str, str]:
     return out
 
 
-FORMAT_1_VALUES = {"transport_samples_per_scene": -1, "stored_spots_top": 6, "trajectories_per_train_scene": 0}
-"""Config fields added with nlos-dataset/2, at the values that mean what a /1 dataset holds (its
+FORMAT_1_VALUES = {"transport_samples_per_scene": -1, "stored_spots_top": 6, "trajectories_per_train_scene": 0,
+                   "room": "", "extra_spots": []}
+"""Config fields added since nlos-dataset/1, at the values that mean what an older dataset holds (its
 config.json lacks them): a run with those values may continue it; other missing fields differ."""
 
 
@@ -108,26 +116,34 @@ benchmarks/generate_images_speed.py). One thread also makes the bytes independen
 
 
 def generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int] = (0, 1), progress: bool = True,
-             threads: int = GENERATE_THREADS) -> dict:
+             threads: int = GENERATE_THREADS, part: tuple[int, int] = (0, 1)) -> dict:
     """Build this shard's scenes; write the manifest if that completes the dataset. Returns the shard record.
 
     ``threads``: torch threads while it runs (restored afterwards), see :data:`GENERATE_THREADS`.
+    ``part``: (i, n), only the image samples of index i mod n within each scene
+    (``SceneBuilder.build``: several processes on one room).
     """
     before = torch.get_num_threads()
     torch.set_num_threads(threads)
     try:
-        return _generate(cfg, out, shard, progress)
+        return _generate(cfg, out, shard, progress, part)
     finally:
         torch.set_num_threads(before)
 
 
-def _generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int], progress: bool) -> dict:
+def _generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int], progress: bool,
+              part: tuple[int, int] = (0, 1)) -> dict:
     from ..console import QUIET, console
 
     out = Path(out)
     i, n = shard
     if not (n >= 1 and 0 <= i < n):
         raise NlosError(f"--shard: expected I/N with 0 <= I < N, got {i}/{n}")
+    from .config import validate
+
+    validate(cfg, "config")  # before anything is written: a refused config leaves nothing behind
+    if out.exists() and not out.is_dir():
+        raise NlosError(f"--out: {out} is a file, not a dataset directory")
     out.mkdir(parents=True, exist_ok=True)
     _check_config(out, cfg)
     remove_stale_temporaries(out)
@@ -142,11 +158,12 @@ def _generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int], progr
         from .scene_builder import SceneBuilder
 
         for p in mine:
-            SceneBuilder(cfg, p, out).build(lambda k=1: bar.advance(task, k))
+            SceneBuilder(cfg, p, out).build(lambda k=1: bar.advance(task, k), part)
     record = {"shard": f"{i}/{n}", "scenes": [p.id for p in mine], "seconds": time.perf_counter() - t0,
               "versions": versions(), "torch_threads": torch.get_num_threads()}
     (out / "shards").mkdir(exist_ok=True)
-    atomic_json(out / "shards" / f"{i}-of-{n}.json", record)
+    name = f"{i}-of-{n}" + ("" if part == (0, 1) else f"-part-{part[0]}-of-{part[1]}")
+    atomic_json(out / "shards" / f"{name}.json", record)
     finalize(cfg, out)
     return record
 

@@ -67,20 +67,23 @@ class SceneBuilder:
         self.cfg, self.plan = cfg, plan
         self.dir = out / "scenes" / plan.id
 
-    def build(self, advance) -> None:
+    def build(self, advance, part: tuple[int, int] = (0, 1)) -> None:
+        """Build (or resume) the scene. ``part`` = (i, n): of the image samples, render only those
+        whose index is i mod n, so n processes can share one room (``nlos fit``); every part first
+        makes sure the room, its full-transport samples and ``spots.json`` exist (run part 0 alone
+        first so the others find them), and whichever part finds every file there writes ``done.json``."""
         from .generate import sample_count, transport_count
 
         n = sample_count(self.cfg, self.plan.split)
         m = transport_count(self.cfg, self.plan.split)
         if (self.dir / "done.json").exists():
-            advance(n)
-            return
-        from ..world.rooms import generate_room
-
-        room = generate_room(self.plan.seed, self._room_config())
-        scene = room.scene
+            if self._intact():
+                advance(n)
+                return
+        scene, family = self._room()
         self.dir.mkdir(parents=True, exist_ok=True)
-        save_scene(scene, self.dir)
+        if not (self.dir / "scene.json").exists():  # written last: its meshes are complete (parts share them)
+            save_scene(scene, self.dir)
         surfaces = StaticSurfaces(scene)
         los = los_mesh(surfaces, scene.camera, self.cfg.los_vertices)
         settings = RenderSettings(pixel_samples=self.cfg.pixel_samples,
@@ -92,7 +95,7 @@ class SceneBuilder:
                                                                  * FLASH_SPOT_SAMPLES),
                          aim_points=scene.camera.look_at[None])
         if not _readable(self.dir / "static.npz", "flash_direct"):
-            self._write_static(renderer, flash, los, room.family)
+            self._write_static(renderer, flash, los, family)
         (self.dir / "samples").mkdir(exist_ok=True)
         specs = self._specs(scene)
         floor_z = scene.hidden_region.floor_z
@@ -104,14 +107,47 @@ class SceneBuilder:
         if m < n:
             spots = self._stored_spots(len(los.faces))
             (self.dir / "images").mkdir(exist_ok=True)
+            i, parts = part
             for k, spec in enumerate(specs[m:], start=m):
                 path = self.dir / "images" / f"{k:05d}.npz"
-                if not _readable(path, "nlos_spots"):
+                if k % parts == i and not _readable(path, "nlos_spots"):
                     atomic_npz(path, **self._image_sample(renderer, flash, spec, floor_z, spots))
                 advance()
+            if any(not (self.dir / "images" / f"{k:05d}.npz").exists() for k in range(m, n)):
+                return  # another part is still rendering; the last one to finish writes done.json
         digests = {str(p.relative_to(self.dir)): file_digest(p)
                    for p in sorted(self.dir.rglob("*")) if p.is_file() and p.name != "done.json"}
         atomic_json(self.dir / "done.json", {"samples": n, "transport_samples": m, "digests": digests})
+
+    def _intact(self) -> bool:
+        """A finished scene's files match their digests; otherwise the bad ones and ``done.json``
+        are deleted (the build then renders them again) and a line says which."""
+        from ..console import console
+        from .verify import digest_problems
+
+        bad = digest_problems(self.dir)
+        for path, why in bad:
+            console.print(f"{path}: {why}; rendering it again")
+            path.unlink(missing_ok=True)
+        if bad:
+            (self.dir / "done.json").unlink(missing_ok=True)
+        return not bad
+
+    def _room(self):
+        """The scene without a person and its family: the config's given room, else a procedural one."""
+        if self.cfg.room:
+            from ..scene.io import load_scene
+            from .generate import ROOM_FAMILY
+
+            scene = load_scene(self.cfg.room)
+            if scene.hidden_region is None:
+                raise NlosError(f"{self.cfg.room}: the room has no hidden_region (where people are placed)")
+            scene.human = None
+            return scene, ROOM_FAMILY
+        from ..world.rooms import generate_room
+
+        room = generate_room(self.plan.seed, self._room_config())
+        return room.scene, room.family
 
     def _room_config(self):
         from ..world.rooms import RoomConfig
@@ -256,6 +292,7 @@ def choose_spots(cfg: DatasetConfig, plan, scene_dir: Path) -> dict:
         policies[name] = {str(k[0]): p for k, p in zip(keys, picks)} if name == "random" else picks[0]
     chosen = set(top) | {p for v in policies.values() for p in (v.values() if isinstance(v, dict) else [v])
                          if p is not None}
+    chosen |= {int(t) for t in cfg.extra_spots if 0 <= int(t) < len(landed) and landed[int(t)]}
     if not chosen:
         raise NlosError(f"{scene_dir}: no spot to store for image samples (no candidate lands)")
     return {"spots": sorted(chosen), "snr_top": top, "snr_top_values": [float(snr[t]) for t in top],

@@ -101,12 +101,18 @@ def seen_config(rooms: int, seed: int = 0, noise: bool = True, policy: str = "or
 
 
 def score(tr: Trainer, rooms: list[RoomSplit], noise: bool, seed: int = 0, batch: int = 128) -> dict:
-    """Predictions of a trained run on its rooms' test people, each room under the run's spot."""
+    """Predictions of a trained run on its rooms' test people, each room under the run's spot.
+
+    Besides the scores, ``per_person`` holds arrays over all test people (room, true and predicted
+    position (N, 2) in the region frame, true and predicted posture) and ``photos`` the first test
+    person of each posture as photographed (image and empty-room image (6, H, W, 3), NaN where a
+    posture has no test person; first room)."""
     tr.net.eval()
     gen = torch.Generator(device=tr.device).manual_seed(20_000 + seed)  # the same noise for every run
-    true, pred, err, spots = [], [], [], []
+    cols = {k: [] for k in ("room", "true_xy", "pred_xy", "true_posture", "pred_posture")}
+    spots, photos = [], None
     with torch.no_grad():
-        for s, room in zip(tr.scenes, rooms):
+        for i, (s, room) in enumerate(zip(tr.scenes, rooms)):
             (y, mode, _), = tr.illuminations([s], train=False)
             spots.append(int(y.argmax()) if y is not None else -1)
             t = room.test.to(tr.device)
@@ -115,15 +121,34 @@ def score(tr: Trainer, rooms: list[RoomSplit], noise: bool, seed: int = 0, batch
                 img, free = form_images(t, idx, y, mode)
                 ph = photographs(img, free, tr.sensor, gen, noise, tr.cfg.net.background_subtract)
                 pos, logits = tr.net(ph.images, ph.background, ph.clipped)
-                true.append(t.posture[idx].cpu().numpy())
-                pred.append(logits.argmax(1).cpu().numpy())
-                err.append((pos - t.target[idx]).norm(dim=1).cpu().numpy())
-    true, pred, err = np.concatenate(true), np.concatenate(pred), np.concatenate(err)
+                for k, v in (("room", torch.full_like(idx, i)), ("true_xy", t.target[idx]), ("pred_xy", pos),
+                             ("true_posture", t.posture[idx]), ("pred_posture", logits.argmax(1))):
+                    cols[k].append(v.cpu().numpy())
+                if i == 0:
+                    photos = _first_photos(photos, t.posture[idx], ph)
+    pp = {k: np.concatenate(v) for k, v in cols.items()}
+    true, pred = pp["true_posture"], pp["pred_posture"]
+    err = np.linalg.norm(pp["pred_xy"] - pp["true_xy"], axis=1)
     conf = np.zeros((len(POSTURES), len(POSTURES)), int)
     np.add.at(conf, (true, pred), 1)
     return {"posture_accuracy": float(100 * np.mean(true == pred)),
             "posture3_accuracy": float(100 * np.mean(GROUP_OF[true] == GROUP_OF[pred])),
-            "error_cm": float(100 * err.mean()), "confusion": conf.tolist(), "spots": spots}
+            "error_cm": float(100 * err.mean()), "confusion": conf.tolist(), "spots": spots,
+            "per_person": pp, "photos": photos}
+
+
+def _first_photos(photos: dict | None, posture: torch.Tensor, ph) -> dict:
+    """Keep the first photograph (and empty-room photograph) of each posture seen so far."""
+    h, w = ph.images.shape[1:3]
+    if photos is None:
+        photos = {"image": np.full((len(POSTURES), h, w, 3), np.nan, np.float32),
+                  "background": np.full((len(POSTURES), h, w, 3), np.nan, np.float32)}
+    bg = ph.background if ph.background is not None else torch.zeros_like(ph.images)
+    for j, p in enumerate(posture.cpu().numpy()):
+        if np.isnan(photos["image"][p, 0, 0, 0]):
+            photos["image"][p] = ph.images[j].cpu().numpy()
+            photos["background"][p] = bg[j].cpu().numpy()
+    return photos
 
 
 def mean_answer_cm(rooms: list[RoomSplit]) -> float:
@@ -134,13 +159,19 @@ def mean_answer_cm(rooms: list[RoomSplit]) -> float:
 
 
 def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs: float,
-             progress: bool = False, min_steps: int = 0) -> SeenResult:
+             progress: bool = False, min_steps: int = 0, keep_model: Path | None = None,
+             ien_state: dict | None = None) -> SeenResult:
     """Train ``cfg`` on the first ``n`` pool people of every room for about ``epochs`` passes (more
     where that is fewer than ``min_steps`` steps: small N), then score.
 
     Resumable: a finished run's ``result.json`` is returned as is; an interrupted one resumes from
     its checkpoint. Validation every epoch, or every 1/25 of the run where epochs are shorter, picks
     the best weights (patience from ``cfg``, counted in validation passes).
+
+    ``keep_model``: also write the best weights there as a checkpoint ``nlos predict`` reads, and
+    ``heldout.npz`` (``score``'s ``per_person`` and ``photos``) beside ``result.json``.
+    ``ien_state``: a trained IEN's weights (policy 'ien'): each room keeps that IEN's most probable
+    stored spot (``Trainer.freeze_spots``) instead of training one.
     """
     import time
 
@@ -161,6 +192,9 @@ def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs
     ckpt = out / "checkpoint.pt"
     if ckpt.exists():
         tr.load(ckpt)
+    if ien_state is not None:
+        tr.ien.load_state_dict(ien_state)
+        tr.freeze_spots()
     from ..train.loop import _validation_pass
 
     stop = tr.stopped_early
@@ -174,7 +208,14 @@ def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs
     steps = tr.step
     if (out / "best.pt").exists():
         tr.load(out / "best.pt")
+    if keep_model is not None:
+        tr.save(keep_model)
     res = score(tr, rooms, cfg.sensor_noise, cfg.seed)
+    per_person, photos = res.pop("per_person"), res.pop("photos")
+    if keep_model is not None:  # what a report draws: every test person, one photograph per posture
+        from ..data.store import atomic_npz
+
+        atomic_npz(out / "heldout.npz", **per_person, **{f"photo_{k}": v for k, v in (photos or {}).items()})
     result = SeenResult(**res, mean_answer_cm=mean_answer_cm(rooms), people_per_room=n, steps=steps,
                         seconds=time.perf_counter() - t0, unstored_choices=getattr(tr, "unstored_choices", 0))
     tmp = done.with_name(".result.json.tmp")

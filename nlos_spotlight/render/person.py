@@ -79,7 +79,11 @@ class Person:
             raise ValueError(f"person quadrature: unknown {quadrature!r} (known: {', '.join(QUADRATURES)})")
         pos = np.einsum("ij,ijk->ik", bary, mesh.vertices[mesh.faces[face]])
         alb = np.broadcast_to(np.asarray(albedo, dtype=np.float64), (len(face), 3)).copy()
-        return cls(mesh, pos, mesh.face_normals()[face], area, alb, _watertight(mesh))
+        closed = _watertight(mesh)
+        # the closed-mesh shortcut skips pairs behind a face's normal: on a mesh wound inward those
+        # are the outside ones, so its normals are turned outward (the material is two-sided)
+        sign = -1.0 if closed and signed_volume(mesh) < 0 else 1.0
+        return cls(mesh, pos, sign * mesh.face_normals()[face], area, alb, closed)
 
     def translated_mesh(self, t: np.ndarray) -> TriMesh:
         return TriMesh(self.mesh.vertices + t, self.mesh.faces)
@@ -159,6 +163,12 @@ def shadow_variation(mesh: TriMesh, m: int = SHADOW_DIRECTIONS) -> np.ndarray:
     mixed = hit.any(axis=1) & ~hit.all(axis=1)
     w = cos[face, d]
     return np.bincount(face, w * mixed, len(normal)) / np.maximum(np.bincount(face, w, len(normal)), 1e-30)
+
+
+def signed_volume(mesh: TriMesh) -> float:
+    """Volume enclosed by a closed mesh, negative when its faces are wound inward (divergence theorem)."""
+    a, b, c = (mesh.vertices[mesh.faces[:, i]] for i in range(3))
+    return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
 
 
 def _watertight(mesh: TriMesh) -> bool:

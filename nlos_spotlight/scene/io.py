@@ -34,7 +34,8 @@ def scene_from_dict(d: dict, directory: Path, human_mesh: str | Path | None = No
         raise NlosError(f"scene.json: format is {d['format']!r}, this reader supports {FORMAT!r}")
     if d.get("units", "meters") != "meters":
         raise NlosError(f"scene.json: units {d['units']!r} unsupported (use 'meters')")
-    _check_keys(d["materials"], set(d["materials"]), "materials")
+    if not isinstance(d["materials"], dict):
+        raise NlosError(f"materials: expected a JSON object of named materials, got {type(d['materials']).__name__}")
     materials = {name: Material.from_dict(m, f"materials.{name}") for name, m in d["materials"].items()}
     if not isinstance(d["shapes"], list) or not d["shapes"]:
         raise NlosError("shapes: expected a non-empty list")
@@ -42,7 +43,8 @@ def scene_from_dict(d: dict, directory: Path, human_mesh: str | Path | None = No
     for i, s in enumerate(d["shapes"]):
         where = f"shapes[{i}]"
         _check_keys(s, {"mesh", "material"}, where, ("mesh", "material"))
-        if s["material"] not in materials:
+        _name(s["mesh"], f"{where}.mesh")
+        if _name(s["material"], f"{where}.material") not in materials:
             raise NlosError(f"{where}: unknown material '{s['material']}'")
         shapes.append(Shape(s["mesh"], s["material"], load_mesh(directory / s["mesh"], f"{where} ({s['mesh']})")))
     scene = Scene(shapes, materials, Camera.from_dict(d["camera"]), Projector.from_dict(d["projector"]))
@@ -57,6 +59,7 @@ def scene_from_dict(d: dict, directory: Path, human_mesh: str | Path | None = No
         if human_mesh is not None:
             mesh_file, mesh = Path(human_mesh).name, load_mesh(human_mesh, "--human")
         elif "mesh" in h:
+            _name(h["mesh"], "human.mesh")
             mesh_file, mesh = h["mesh"], load_mesh(directory / h["mesh"], f"human ({h['mesh']})")
         else:
             raise NlosError("human: missing key 'mesh'")
@@ -66,10 +69,17 @@ def scene_from_dict(d: dict, directory: Path, human_mesh: str | Path | None = No
 
         try:
             SensorConfig.from_dict(d["sensor"])
-        except ValueError as exc:
-            raise NlosError(str(exc)) from None
+        except (ValueError, TypeError) as exc:
+            raise NlosError(f"sensor: {str(exc).splitlines()[0]}") from None
         scene.sensor = dict(d["sensor"])
     return scene
+
+
+def _name(value, where: str) -> str:
+    """A file or material name: a non-empty string."""
+    if not isinstance(value, str) or not value:
+        raise NlosError(f"{where}: expected a non-empty name, got {value!r}")
+    return value
 
 
 def scene_to_dict(scene: Scene) -> dict:

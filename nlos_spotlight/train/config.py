@@ -76,6 +76,24 @@ class TrainConfig:
     device: str = "auto"
     """'cpu', 'cuda' or 'auto'."""
 
+    def __post_init__(self) -> None:
+        for k in ("steps", "batch_size", "scenes_per_step", "eval_every", "ckpt_every", "log_every"):
+            v = getattr(self, k)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise NlosError(f"config: {k} must be an integer of at least 1, got {v!r}")
+        for k in ("seed", "spot_steps", "patience", "holdout_every", "val_every"):
+            v = getattr(self, k)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise NlosError(f"config: {k} must be a non-negative integer, got {v!r}")
+        for k in ("lr", "tau", "snr_tau"):
+            v = getattr(self, k)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < float("inf"):
+                raise NlosError(f"config: {k} must be a positive number, got {v!r}")
+        for k in ("weight_decay", "ien_lr_scale", "position_weight", "posture_weight", "snr_weight"):
+            v = getattr(self, k)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v < float("inf"):
+                raise NlosError(f"config: {k} must be a non-negative number, got {v!r}")
+
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 

@@ -397,6 +397,25 @@ def _validation_pass(tr: Trainer, out: Path) -> bool:
     return tr.stopped_early
 
 
+def truncate_log(path: Path, step: int) -> None:
+    """Drop the rows of a CSV log whose ``step`` is after ``step`` (a run killed between writing a
+    row and its next checkpoint repeats those steps on resume); atomic."""
+    if not path.exists():
+        return
+    with path.open(newline="") as f:
+        rows = list(csv.reader(f))
+    if not rows or "step" not in rows[0]:
+        return
+    col = rows[0].index("step")
+    keep = [rows[0]] + [r for r in rows[1:] if len(r) > col and r[col].isdigit() and int(r[col]) <= step]
+    if len(keep) == len(rows):
+        return
+    tmp = path.with_name(f".{path.name}.tmp")
+    with tmp.open("w", newline="") as f:
+        csv.writer(f).writerows(keep)
+    os.replace(tmp, path)
+
+
 def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool = False,
           progress: bool = True) -> Trainer:
     """Train (or resume) a run in ``out``: config.json, metrics.csv, checkpoint.pt, final.pt
@@ -423,6 +442,10 @@ def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool 
     tr = Trainer(cfg, [t for t, _ in parts], out, val_scenes=val)
     if resume and ckpt.exists():
         tr.load(ckpt)
+        for log in ("metrics.csv", "validation.csv"):  # rows written after the checkpoint are redone
+            truncate_log(out / log, tr.step)
+    elif resume and tr.rank == 0:
+        console.print(f"note: {ckpt} does not exist; starting the run from step 0")
     if tr.rank == 0:
         (out / "config.json").write_text(json.dumps({"train": cfg.to_dict(), "data": str(data_dir)}, indent=1))
     metrics = out / "metrics.csv"

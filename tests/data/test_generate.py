@@ -139,3 +139,44 @@ def test_presets_and_yaml_errors(tmp_path):
         load_config(str(bad))
     with pytest.raises(NlosError, match="neither a preset"):
         load_config(str(tmp_path / "missing.yaml"))
+
+
+def test_verify_names_each_bad_file_and_generate_repairs_it(reference, tmp_path, capsys):
+    """``nlos verify``: one line per bad file, exit 2; rerunning generate renders exactly those
+    files again (the content hash comes back) instead of calling the dataset complete."""
+    from nlos_spotlight.cli import main
+
+    out, manifest = reference
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    assert main(["verify", str(copy)]) == 0
+    a, b = sorted(copy.glob("scenes/train-*/samples/0000[01].npz"))[:2]
+    a.write_bytes(a.read_bytes()[:200])  # truncated
+    b.unlink()
+    capsys.readouterr()
+    assert main(["verify", str(copy)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 3 and err[-1].startswith("error:") and "2 bad files" in err[-1]
+    assert {line.split(": ")[1] for line in err[:2]} == {str(a), str(b)}
+    keep = {p: p.stat().st_mtime_ns for p in copy.rglob("*.npz") if p not in (a, b)}
+    generate(micro(), copy, progress=False)
+    assert main(["verify", str(copy)]) == 0
+    assert json.loads((copy / "manifest.json").read_text())["content_sha256"] == manifest["content_sha256"]
+    assert all(p.stat().st_mtime_ns == t for p, t in keep.items())  # nothing else redone
+
+
+def test_bad_values_are_refused_before_anything_is_written(tmp_path, capsys):
+    from nlos_spotlight.cli import main
+
+    assert main(["generate", "tiny", "--out", str(tmp_path / "d"), "--seed=-1"]) == 2
+    assert "--seed" in capsys.readouterr().err and not (tmp_path / "d").exists()
+    bad = tmp_path / "bad.yaml"
+    for text, field in (("val_scenes: -1", "val_scenes"), ("transport_rank: 0", "transport_rank"),
+                        ("trajectory_frames: -3", "trajectory_frames"), ("frame_rate_hz: 0", "frame_rate_hz"),
+                        ("trajectories_per_test_scene: -1", "trajectories_per_test_scene")):
+        bad.write_text(text + "\n")
+        with pytest.raises(NlosError, match=field):
+            load_config(str(bad))
+    (tmp_path / "f").write_text("x")
+    assert main(["generate", "tiny", "--out", str(tmp_path / "f")]) == 2
+    assert "is a file" in capsys.readouterr().err

@@ -118,3 +118,28 @@ def test_person_light_within_goal_at_dataset_settings(room_and_body):
         assert err < bound, f"faces rule at {preset.person_samples} samples: {err:.2%} from converged"
         errs.append(err)
     assert errs[0] < errs[1]  # the reference resolves what one sample a face misses
+
+
+def test_closed_body_wound_inward_gets_the_same_light():
+    """The person is two-sided: a closed body whose faces are wound inward is lit and seen as the
+    same body wound outward (the closed-mesh shortcut must not depend on winding)."""
+    from nlos_spotlight.render.person import Person, signed_volume
+    from nlos_spotlight.render.transport import Renderer, RenderSettings
+    from nlos_spotlight.scene.builders import box
+    from nlos_spotlight.scene.examples import SPOT_TARGET, corner_scene
+    from nlos_spotlight.scene.format import TriMesh
+
+    scene = corner_scene("diffuse_corner", resolution=8)
+    out = box([1.0, 1.4, 0.0], [1.3, 1.7, 1.7])
+    inward = TriMesh(out.vertices, out.faces[:, ::-1].copy())
+    assert signed_volume(out) == pytest.approx(0.3 * 0.3 * 1.7) and signed_volume(inward) < 0
+    r = Renderer(scene, RenderSettings(pixel_samples=1, transport_pixel_samples=1, spot_samples=8,
+                                       person_samples=128), aim_points=SPOT_TARGET[None])
+    imgs = [r.render(r.spot_vector(0), Person.from_mesh(m, [0.5] * 3, 128), components=("nlos",)).image
+            for m in (out, inward)]
+    # reversing a face's vertex order moves its quasi-random samples within it: equal up to the
+    # quadrature's own error, which 4x4 blocks average down (before the fix: inward gave 0)
+    total = float(imgs[0].sum())
+    assert total > 0 and float(imgs[1].sum()) == pytest.approx(total, rel=0.03)
+    blocks = [im.reshape(2, 4, 2, 4, 3).sum((1, 3)) for im in imgs]
+    torch.testing.assert_close(blocks[1], blocks[0], rtol=0.05, atol=0.01 * float(blocks[0].max()))

@@ -111,3 +111,21 @@ def test_seen_split_keeps_its_test_people_and_trains_on_everyone_else():
     assert ids(r.pool) == sorted(set(range(60)) - {8, 9, 18, 19, 28, 29})
     grown = split_room(toy_scene(n=80), period=10, max_eval=3)
     assert grown.test.num_samples == 3 and grown.pool.num_samples == 74
+
+
+def test_bad_training_values_and_resumed_logs(tmp_path):
+    """steps: -5 is refused; a resumed run drops log rows written after its checkpoint."""
+    import csv
+
+    from nlos_spotlight.errors import NlosError
+    from nlos_spotlight.train.config import TrainConfig
+    from nlos_spotlight.train.loop import truncate_log
+
+    with pytest.raises(NlosError, match="steps"):
+        TrainConfig(steps=-5)
+    with pytest.raises(NlosError, match="lr"):
+        TrainConfig(lr=0.0)
+    log = tmp_path / "metrics.csv"
+    log.write_text("step,loss\n5,1.0\n10,0.9\n15,0.8\n")
+    truncate_log(log, 10)
+    assert [r["step"] for r in csv.DictReader(log.open())] == ["5", "10"]

@@ -1,0 +1,87 @@
+"""Settings of ``nlos fit``: how many synthetic people, which spot policy, the capture, the training."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+from ..errors import NlosError
+
+POLICIES = ("oracle", "ien", "adaptive", "center", "random")
+"""Spot policies ``nlos fit`` can use (``lighting``; 'ien' needs a trained run's checkpoint)."""
+
+
+@dataclass
+class FitConfig:
+    """One fit of a room model (saved as ``ROOM_MODEL/fit.json``)."""
+
+    name: str = "default"
+    """Preset name."""
+    people: int = 3000
+    """Synthetic training people (the learning curve flattens near 3,000 a room: docs/results.md)."""
+    heldout: int = 100
+    """Held-out test people (and as many validation people) besides them."""
+    transport_people: int = 24
+    """The first people, rendered under every candidate spot: the spot policies' SNR."""
+    policy: str = "oracle"
+    """Spot policy: exhaustive physics search (oracle) or one of ``POLICIES``."""
+    checkpoint: str = ""
+    """Trained run whose IEN picks the spot (policy 'ien')."""
+    seed: int = 0
+    """Master seed: people, training, sensor noise."""
+    burst_frames: int = 16
+    """Frames averaged per still capture (and in the empty-room capture): benchmarks/learning_curve.py
+    --burst, oracle spot, 3,000 people: 1 -> 35.2 cm, 4 -> 27.8, 8 -> 24.9, 16 -> 21.9."""
+    resolution: int = 32
+    """Image width and height, binned pixels."""
+    los_vertices: int = 200
+    """Spot candidates: the camera-visible mesh decimated to about this many vertices."""
+    person_samples: int = 1500
+    """Body quadrature points (the face rule at 1,500 faces: under 0.5% error)."""
+    person_quadrature: str = "faces"
+    """Body sampling rule ('faces' or 'mc', render/person.py)."""
+    body_faces: int = 1500
+    """Decimated body faces."""
+    epochs: float = 10.0
+    """Passes over the training people."""
+    min_steps: int = 800
+    """At least this many optimizer steps of 64 images."""
+    workers: int = 2
+    """Processes rendering people (one torch thread each)."""
+
+    def __post_init__(self) -> None:
+        checks = {"people": 1, "heldout": 1, "transport_people": 1, "burst_frames": 1, "resolution": 8,
+                  "los_vertices": 8, "person_samples": 1, "body_faces": 100, "min_steps": 0, "workers": 1}
+        for k, lo in checks.items():
+            v = getattr(self, k)
+            if isinstance(v, bool) or not isinstance(v, int) or v < lo:
+                raise NlosError(f"fit: {k} must be an integer of at least {lo}, got {v!r}")
+        if self.people > 100_000 or self.resolution > 256 or self.burst_frames > 1000:
+            raise NlosError(f"fit: absurd size (people {self.people}, resolution {self.resolution}, "
+                            f"burst {self.burst_frames})")
+        if not (self.epochs > 0):
+            raise NlosError(f"fit: epochs must be positive, got {self.epochs!r}")
+        if self.seed < 0:
+            raise NlosError(f"--seed: expected a non-negative integer, got {self.seed}")
+        if self.policy not in POLICIES:
+            raise NlosError(f"--policy: expected one of {', '.join(POLICIES)}, got {self.policy!r}")
+        if (self.policy == "ien") != bool(self.checkpoint):
+            raise NlosError("--policy ien needs --checkpoint RUN (a run trained with policy 'ien'), "
+                            "and --checkpoint goes only with --policy ien")
+
+    @property
+    def samples(self) -> int:
+        """People rendered in all: full-transport, training, validation and test."""
+        return self.transport_people + self.people + 2 * self.heldout
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+PRESETS = {
+    "default": FitConfig(),
+    # tests and a first look: tens of people, coarse bodies, seconds to a minute
+    "tiny": FitConfig(name="tiny", people=40, heldout=10, transport_people=3, burst_frames=4, resolution=16,
+                      los_vertices=40, person_samples=96, person_quadrature="mc", body_faces=400, epochs=2.0,
+                      min_steps=20, workers=1),
+}

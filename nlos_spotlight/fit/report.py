@@ -1,0 +1,117 @@
+"""A room model's report: ``report.json`` (the numbers) and ``report.html`` (self-contained).
+
+Figures (``fit.figures``): the room and the spot in 3D, the localization error over the hidden
+region's floor, the posture confusion matrix, one simulated photograph per posture.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..evaluate.report import Block, write_report
+from ..world.body import POSTURES
+from .config import FitConfig
+
+
+def region_to_world(xy: np.ndarray, room: dict) -> np.ndarray:
+    """Region-frame positions (N, 2) (``train.scenes.ground_frame``) -> world floor x, y (N, 2)."""
+    cam = np.asarray(room["camera"]["position"])
+    fwd = np.asarray(room["camera"]["look_at"])[:2] - cam[:2]
+    fwd = fwd / np.linalg.norm(fwd)
+    left = np.array([-fwd[1], fwd[0]])
+    hr = room["hidden_region"]
+    origin = (np.asarray(hr["min"]) + np.asarray(hr["max"])) / 2
+    return origin + xy[:, :1] * fwd + xy[:, 1:] * left
+
+
+def capture_record(out: Path, cfg: FitConfig, face: int) -> dict:
+    """The capture a user repeats: exposure per frame (average metering on the room lit by the spot),
+    burst length, the empty-room capture."""
+    import torch
+
+    from ..render.sensor import auto_exposure
+    from ..train.imaging import capture_sensor
+    from .spot import scene_dir
+
+    with np.load(scene_dir(out) / "static.npz") as st:
+        free = st["direct"][face] + st["ambient"]
+    sensor = capture_sensor(free.shape[:2], {"burst_frames": cfg.burst_frames})
+    t = auto_exposure(torch.as_tensor(free, dtype=torch.float32), sensor)
+    return {"burst_frames": cfg.burst_frames, "exposure_s": t, "burst_s": t * cfg.burst_frames,
+            "metering": sensor.metering, "target_mean_fraction": sensor.target_mean_fraction,
+            "f_number": sensor.f_number, "bit_depth": sensor.bit_depth, "raw": True,
+            "resolution": [int(free.shape[0]), int(free.shape[1])],
+            "background": "an empty-room burst with the same settings before the person enters; the network "
+                          "reads the photograph minus it",
+            "camera": "the APS-C mirrorless class of DESIGN section 6 (render.sensor.SensorConfig defaults)"}
+
+
+def write_fit_report(out: Path, cfg: FitConfig, room: dict, spot: dict, result, timing: dict) -> dict:
+    """Write report.json, the figures and report.html (atomically); returns report.json's content."""
+    from ..data.store import atomic_json
+    from . import figures
+
+    out = Path(out)
+    hp = np.load(out / "train" / "heldout.npz")
+    true_w, pred_w = region_to_world(hp["true_xy"], room), region_to_world(hp["pred_xy"], room)
+    err_cm = 100 * np.linalg.norm(pred_w - true_w, axis=1)
+    report = {
+        "spot": {k: spot[k] for k in ("face", "aim", "pan_deg", "tilt_deg", "azimuth_deg", "distance_m")},
+        "heldout": {"people": int(len(err_cm)), "posture_accuracy": result.posture_accuracy / 100,
+                    "posture3_accuracy": result.posture3_accuracy / 100, "error_cm": float(err_cm.mean()),
+                    "median_error_cm": float(np.median(err_cm)), "mean_answer_cm": result.mean_answer_cm,
+                    "confusion": result.confusion, "postures": list(POSTURES)},
+        "capture": capture_record(out, cfg, spot["face"]),
+        "training": {"people": cfg.people, "policy": cfg.policy, "steps": result.steps,
+                     "seconds": result.seconds, "network": "resnet10-narrow (half stem), photograph minus "
+                                                           "empty-room photograph"},
+        "room": room, "timing_s": timing, "config": cfg.to_dict(),
+        "frame": "positions: x, y in the room's z-up frame (m); the network's own output is the region frame "
+                 "of nlos predict",
+    }
+    figs = out / "figures"
+    figs.mkdir(exist_ok=True)
+    figures.room_3d(out / "room", room, spot, figs / "room.png")
+    figures.error_map(true_w, err_cm, room, figs / "error-map.png")
+    figures.confusion(np.asarray(result.confusion), figs / "confusion.png")
+    figures.photos(hp["photo_image"], hp["photo_background"], figs / "photos.png")
+    atomic_json(out / "report.json", report)
+    write_report(_blocks(report), out, "nlos room model")
+    (out / "report.md").unlink(missing_ok=True)  # the HTML is the report; figures/ holds the PNGs
+    return report
+
+
+def _blocks(r: dict) -> list[Block]:
+    h, s, c = r["heldout"], r["spot"], r["capture"]
+    rm = r["room"]
+    return [
+        Block("h1", "Room model"),
+        Block("p", f"Source: {r['config']['name']} preset, {r['training']['people']} synthetic people trained on, "
+                   f"spot policy {r['training']['policy']}; fitted in {r['timing_s']['total_s'] / 60:.1f} min."),
+        Block("h2", "Where to aim the projector"),
+        Block("table", header=["face", "aim point (m)", "pan (deg, + left)", "tilt (deg, + up)", "distance (m)"],
+              rows=[[str(s["face"]), ", ".join(f"{v:+.2f}" for v in s["aim"]), f"{s['pan_deg']:+.1f}",
+                     f"{s['tilt_deg']:+.1f}", f"{s['distance_m']:.2f}"]]),
+        Block("image", "The room (z up), the camera, the projector's beam to the spot and the hidden region",
+              image="figures/room.png"),
+        Block("h2", "Capture"),
+        Block("p", f"A burst of {c['burst_frames']} RAW frames of {1000 * c['exposure_s']:.0f} ms each "
+                   f"({c['burst_s']:.1f} s) at f/{c['f_number']:g}, average metering at "
+                   f"{100 * c['target_mean_fraction']:.0f}% of full scale with the spot on; {c['background']}."),
+        Block("h2", f"Held-out synthetic people ({h['people']})"),
+        Block("table", header=["six-way posture", "upright / sitting / crouching", "mean error", "median error",
+                               "mean-position answer"],
+              rows=[[f"{100 * h['posture_accuracy']:.1f}%", f"{100 * h['posture3_accuracy']:.1f}%",
+                     f"{h['error_cm']:.1f} cm", f"{h['median_error_cm']:.1f} cm", f"{h['mean_answer_cm']:.1f} cm"]]),
+        Block("image", "Localization error over the hidden region's floor (each held-out person, and the mean "
+                       "per cell)", image="figures/error-map.png"),
+        Block("image", "Posture confusion matrix (rows: true posture)", image="figures/confusion.png"),
+        Block("image", "One simulated photograph per posture (top) and the person's light: photograph minus "
+                       "the empty-room photograph (bottom)", image="figures/photos.png"),
+        Block("h2", "Room"),
+        Block("code", json.dumps({k: rm[k] for k in ("camera", "projector", "hidden_region", "materials",
+                                                       "hidden_check")}, indent=1)),
+    ]

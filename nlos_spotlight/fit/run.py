@@ -1,0 +1,224 @@
+"""``nlos fit``: a room in, a trained room model out (scan -> spot -> synthetic people -> network).
+
+Steps, each resumable (a rerun with ``--resume`` skips what is finished and continues what is not):
+
+1. **room**: :func:`.room.room_setup`, saved as ``ROOM_MODEL/room/`` (an nlos-scene/1 directory).
+2. **people**: ``nlos generate`` on that room (``DatasetConfig.room``): the first
+   ``transport_people`` under every candidate spot, then the rest as image samples under the
+   stored spots, rendered by ``workers`` processes (``SceneBuilder.build(part=...)``).
+3. **spot**: the policy's face among the candidates, and how to aim the projector at it.
+4. **train**: the seen-rooms recipe (``evaluate.seen``) with the fit's capture (a burst of
+   ``burst_frames``), best weights kept as ``ROOM_MODEL/final.pt``.
+5. **report**: held-out people scored (``report.json``, ``report.html``).
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+import time
+from pathlib import Path
+
+from ..errors import NlosError
+from .config import FitConfig
+
+FORMAT = "nlos-room-model/1"
+
+
+def dataset_config(cfg: FitConfig, room_dir: Path, extra_spots: list[int] | None = None):
+    """The one-room dataset of a fit (``DatasetConfig`` over the saved room)."""
+    from ..data.config import DatasetConfig
+
+    return DatasetConfig(name="fit", seed=cfg.seed, train_scenes=1, val_scenes=0, test_scenes=0,
+                         samples_per_scene=cfg.samples, transport_samples_per_scene=cfg.transport_people,
+                         trajectories_per_test_scene=0, trajectories_per_train_scene=0, resolution=cfg.resolution,
+                         los_vertices=cfg.los_vertices, body_faces=cfg.body_faces, person_samples=cfg.person_samples,
+                         person_quadrature=cfg.person_quadrature, room=str(room_dir.resolve()),
+                         extra_spots=list(extra_spots or []))
+
+
+def _part(dcfg, data: str, i: int, n: int) -> None:
+    """One rendering process: its share of the image samples (after part 0 stored the spots)."""
+    from ..data.generate import generate, plan
+
+    spots = Path(data) / "scenes" / plan(dcfg)[0].id / "spots.json"
+    while not spots.exists():
+        time.sleep(1.0)
+    generate(dcfg, data, progress=False, part=(i, n))
+
+
+def render_people(dcfg, data: Path, workers: int, progress: bool) -> None:
+    """Generate the fit's dataset with ``workers`` processes sharing the one room."""
+    from ..data.generate import generate
+
+    if workers <= 1 or (data / "manifest.json").exists():
+        generate(dcfg, data, progress=progress)
+        return
+    data.mkdir(parents=True, exist_ok=True)
+    ctx = mp.get_context("spawn")
+    procs = [ctx.Process(target=_part, args=(dcfg, str(data), i, workers), daemon=True) for i in range(1, workers)]
+    for p in procs:
+        p.start()
+    try:
+        generate(dcfg, data, progress=progress, part=(0, workers))
+    finally:
+        for p in procs:
+            p.join()
+    bad = [p.exitcode for p in procs if p.exitcode != 0]
+    if bad:
+        raise NlosError(f"{data}: a rendering process failed (exit {bad[0]}); rerun with --resume to continue")
+    generate(dcfg, data, progress=False)  # every part is there: done.json and the manifest
+
+
+def check_out(out: Path, record: dict, resume: bool) -> None:
+    """Refuse to mix fits: ``out`` holds nothing, or (with ``resume``) a fit with the same settings.
+    Nothing is written here: a fit whose input is refused leaves no directory behind."""
+    path = out / "fit.json"
+    if out.exists() and not out.is_dir():
+        raise NlosError(f"--out: {out} is a file, not a directory")
+    if path.exists():
+        try:
+            old = json.loads(path.read_text())
+        except json.JSONDecodeError:
+            raise NlosError(f"{path}: corrupted (invalid JSON); remove {out} to start over") from None
+        if not resume:
+            raise NlosError(f"{out} already holds a fit: pass --resume to continue it, or choose another --out")
+        if old.get("settings") != record["settings"]:
+            a, b = old.get("settings", {}), record["settings"]
+            diff = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
+            raise NlosError(f"{out} holds a fit with other settings (differs in: {', '.join(diff)})")
+        return
+    if out.exists() and any(out.iterdir()):
+        raise NlosError(f"--out: {out} exists and is not a room model; choose an empty or new directory")
+
+
+def _atomic_json(path: Path, obj) -> None:
+    from ..data.store import atomic_json
+
+    atomic_json(path, obj)
+
+
+class StepClock:
+    """Seconds each step has run, summed over every run of a resumed fit (``timing.json``)."""
+
+    def __init__(self, out: Path):
+        self.path = Path(out) / "timing.json"
+        self.seconds = json.loads(self.path.read_text()) if self.path.exists() else {}
+        self.t = time.perf_counter()
+
+    def lap(self, step: str) -> None:
+        now = time.perf_counter()
+        self.seconds[step] = self.seconds.get(step, 0.0) + now - self.t
+        self.t = now
+        if self.path.parent.exists():
+            _atomic_json(self.path, self.seconds)
+
+    @property
+    def total(self) -> float:
+        return sum(v for k, v in self.seconds.items() if k != "total_s")
+
+
+def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = False, progress: bool = True) -> dict:
+    """Run every step (module docstring); returns ``report.json``'s content."""
+    from ..console import console
+    from ..data.generate import versions
+
+    out = Path(out)
+    record = {"format": FORMAT, "settings": {"room": str(Path(room).resolve()), **flags, **cfg.to_dict()},
+              "versions": versions()}
+    check_out(out, record, resume)
+    clock = StepClock(out)
+    console.rule("1/5 room")
+    setup = _room(room, out, cfg, flags, record)
+    clock.lap("room_s")
+    console.rule("2/5 people")
+    extra = _ien_spot(cfg, out / "room") if cfg.policy == "ien" else []
+    render_people(dataset_config(cfg, out / "room", extra), out / "data", cfg.workers, progress)
+    clock.lap("generate_s")
+    console.rule("3/5 spot")
+    from .spot import policy_face, spot_record
+    from .train import room_split, train_room
+
+    split = room_split(out, cfg, ["normals"])
+    spot = spot_record(out, extra[0] if extra else policy_face(cfg, split))
+    console.print(spot["explain"])
+    console.rule("4/5 train")
+    result = train_room(cfg, out, progress, split)
+    if result.spots[0] != spot["face"]:
+        raise NlosError(f"the trained network used spot {result.spots[0]}, not the chosen {spot['face']}")
+    clock.lap("train_s")
+    console.rule("5/5 report")
+    from .report import write_fit_report
+
+    report = write_fit_report(out, cfg, setup, spot, result, {**clock.seconds, "total_s": clock.total})
+    clock.lap("report_s")
+    h = report["heldout"]
+    console.print(f"held-out people: {h['people']}, posture {100 * h['posture_accuracy']:.1f}% (upright/sitting/"
+                  f"crouching {100 * h['posture3_accuracy']:.1f}%), error {h['error_cm']:.1f} cm; fit "
+                  f"{clock.total / 60:.1f} min; room model: {out.resolve()} (final.pt, report.json, report.html)")
+    return report
+
+
+def _room(room: str, out: Path, cfg: FitConfig, flags: dict, record: dict) -> dict:
+    """Step 1: the room, saved once (a rerun reads it back)."""
+    from ..console import console
+    from ..scene.io import load_scene, save_scene
+    from .room import room_setup
+
+    path = out / "room.json"
+    if (out / "room" / "scene.json").exists() and path.exists():
+        rec = json.loads(path.read_text())
+        load_scene(out / "room")  # still readable
+        console.print(f"room: {out / 'room'} (from the first run)")
+        return rec
+    s = room_setup(room, cfg.resolution, flags.get("camera_position"), flags.get("camera_look_at"),
+                   flags.get("projector_position"), flags.get("hidden_region"), flags.get("up"))
+    out.mkdir(parents=True, exist_ok=True)  # the input is good: from here on every step is kept
+    if not (out / "fit.json").exists():
+        _atomic_json(out / "fit.json", record)
+    save_scene(s.scene, out / "room")
+    sc = s.scene
+    mesh = sc.static_mesh()[0]
+    rec = {"camera": {"position": sc.camera.position.tolist(), "look_at": sc.camera.look_at.tolist(),
+                      "fov_deg": sc.camera.fov_deg, "source": s.sources["camera"]},
+           "projector": {"position": sc.projector.position.tolist(), "source": s.sources["projector"]},
+           "hidden_region": {**sc.hidden_region.to_dict(), "source": s.sources["hidden_region"]},
+           "materials": s.sources["materials"], "hidden_check": s.hidden,
+           "file_to_world": s.file_to_world.tolist(), "faces": sc.num_faces,
+           "extent": {"min": mesh.vertices.min(0).tolist(), "max": mesh.vertices.max(0).tolist()}}
+    _atomic_json(path, rec)
+    _print_room(rec, console)
+    return rec
+
+
+def _print_room(rec: dict, console) -> None:
+    v = lambda a: "(" + ", ".join(f"{x:+.2f}" for x in a) + ")"
+    note = {"flags": "from flags", "scene": "from the scene", "default": "default: set it with a flag to change it"}
+    hr, ex = rec["hidden_region"], rec["extent"]
+    console.print(f"room: {rec['faces']} faces, z up; x {ex['min'][0]:.2f}..{ex['max'][0]:.2f}, y {ex['min'][1]:.2f}.."
+                  f"{ex['max'][1]:.2f}, z {ex['min'][2]:.2f}..{ex['max'][2]:.2f} m")
+    console.print(f"camera ({note[rec['camera']['source']]}): at {v(rec['camera']['position'])} looking at "
+                  f"{v(rec['camera']['look_at'])}")
+    console.print(f"projector ({note[rec['projector']['source']]}): at {v(rec['projector']['position'])}")
+    console.print(f"hidden region ({note[hr['source']]}): x {hr['min'][0]:.2f}..{hr['max'][0]:.2f}, "
+                  f"y {hr['min'][1]:.2f}..{hr['max'][1]:.2f} m, floor z {hr['floor_z']:.2f} m; "
+                  f"hidden check: camera sees {rec['hidden_check']['seen_by_camera']}, projector "
+                  f"{rec['hidden_check']['seen_by_projector']} of {rec['hidden_check']['points']} points")
+    console.print(f"materials: {rec['materials']}")
+
+
+def _ien_spot(cfg: FitConfig, room_dir: Path) -> list[int]:
+    """The face a trained run's IEN picks on the room's candidates (computed like the dataset's)."""
+    from ..data.scene_builder import los_mesh
+    from ..render.surface import StaticSurfaces
+    from ..scene.io import load_scene
+    from ..train.checkpoint import load_trained
+    from .spot import ien_face
+
+    models = load_trained(cfg.checkpoint)
+    scene = load_scene(room_dir)
+    los = los_mesh(StaticSurfaces(scene), scene.camera, cfg.los_vertices)
+    return [ien_face(models, scene, los)]
+
+
+__all__ = ["FORMAT", "dataset_config", "fit_room", "render_people"]

@@ -1,0 +1,71 @@
+"""The fit's spot: which candidate face, and how to aim the projector at it (``apps.spotlight``'s
+conventions: pan positive to the left of the camera's view, tilt positive up)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ..errors import NlosError
+from ..scene.format import Scene, TriMesh
+
+
+def ien_face(models, scene: Scene, los: TriMesh) -> int:
+    """The most probable landed candidate of a trained IEN on ``los`` (the room's candidates)."""
+    from ..apps.spotlight import SpotlightSetup, ien_logits, projector_reach
+
+    if models.config.policy != "ien":
+        raise NlosError(f"{models.path}: this run used the fixed '{models.config.policy}' spot policy, so its IEN "
+                        "was never trained; --checkpoint needs a run trained with policy 'ien'")
+    mesh = scene.static_mesh()[0]
+    setup = SpotlightSetup(Path("room"), "scene", mesh, scene.camera, "scene", scene.projector.position, "scene")
+    reach, _ = projector_reach(setup, los)
+    logits = ien_logits(models, los, scene.camera).double().masked_fill(~torch.as_tensor(reach), float("-inf"))
+    if not reach.any():
+        raise NlosError("the projector reaches none of the faces the camera sees")
+    return int(torch.argmax(logits))
+
+
+def scene_dir(out: Path) -> Path:
+    """The fit dataset's one scene directory."""
+    dirs = sorted((Path(out) / "data" / "scenes").glob("*"))
+    if len(dirs) != 1:
+        raise NlosError(f"{out}/data: expected one room, found {len(dirs)}")
+    return dirs[0]
+
+
+def spot_record(out: Path, face: int) -> dict:
+    """``report.json``'s ``spot``: face, aim point, pan and tilt, with a printable explanation."""
+    from ..apps.spotlight import aim_projector
+    from ..render.rays import RayEngine
+    from ..scene.io import load_scene
+
+    if face < 0:
+        raise NlosError("the spot policy chose no spot (flash or ambient): nothing to aim")
+    room = load_scene(Path(out) / "room")
+    with np.load(scene_dir(out) / "static.npz") as st:
+        target = np.asarray(st["aim_points"][face], np.float64)
+    mesh = room.static_mesh()[0]
+    proj = room.projector.position
+    d = (target - proj) / np.linalg.norm(target - proj)
+    hit = RayEngine(mesh.vertices, mesh.faces).first_hit(proj[None], d[None])
+    landing = proj + d * hit.t[0] if hit.hit[0] else None
+    aim = aim_projector(proj, target, room.camera, landing)
+    explain = (f"spot: candidate face {face} at ({target[0]:+.2f}, {target[1]:+.2f}, {target[2]:+.2f}) m; aim the "
+               f"projector {aim.distance_m:.2f} m away: pan {aim.pan_deg:+.1f} deg (+ = left of the camera's view), "
+               f"tilt {aim.tilt_deg:+.1f} deg (+ = up)")
+    return {"face": int(face), "aim": target.tolist(), "pan_deg": aim.pan_deg, "tilt_deg": aim.tilt_deg,
+            "azimuth_deg": aim.azimuth_deg, "distance_m": aim.distance_m, "explain": explain,
+            "convention": aim.to_dict()["convention"]}
+
+
+def policy_face(cfg, split) -> int:
+    """The face a fixed spot policy picks in the fit's room (what the trainer will use: the same
+    policy function and random key, ``train.loop.fixed_illuminations``)."""
+    from ..train.loop import fixed_illuminations
+    from .train import fit_train_config
+
+    ill, = fixed_illuminations(fit_train_config(cfg), [split.pool])
+    return int(ill.face) if ill.mode == "spot" else -1

@@ -1,0 +1,44 @@
+"""Train a room model: the seen-rooms recipe (``evaluate.seen``) on the fit's one room."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from ..evaluate.seen import RoomSplit, SeenResult, run_seen, seen_config, split_room
+from ..train.config import TrainConfig
+from .config import FitConfig
+
+
+def fit_train_config(cfg: FitConfig) -> TrainConfig:
+    """``seen_config`` for one room with the fit's capture (``burst_frames``) and spot policy."""
+    tc = seen_config(1, seed=cfg.seed, noise=True, policy=cfg.policy)
+    return dataclasses.replace(tc, name="room-model", sensor={"burst_frames": cfg.burst_frames})
+
+
+def room_split(out: Path, cfg: FitConfig, features: list[str]) -> RoomSplit:
+    """The room's image samples split into training pool, validation and test (``split_room``):
+    ``heldout`` test and as many validation people, spread over the generation order."""
+    from ..train.scenes import load_split
+
+    s, = load_split(Path(out) / "data", "train", features, samples="images")
+    period = 10 if s.num_samples >= 10 * cfg.heldout else max(3, s.num_samples // cfg.heldout)
+    return split_room(s, period=period, max_eval=cfg.heldout)
+
+
+def train_room(cfg: FitConfig, out: Path, progress: bool, split: RoomSplit | None = None) -> SeenResult:
+    """Step 4 of ``nlos fit``: train (resumable, ``ROOM_MODEL/train/``), keep ``final.pt``, score.
+    ``split``: the room already loaded with the default IEN features (else it is read here)."""
+    ien_state, features = None, ["normals"]
+    if cfg.policy == "ien":
+        from ..train.checkpoint import load_trained
+
+        models = load_trained(cfg.checkpoint)
+        ien_state, features, ien_cfg = models.ien.state_dict(), list(models.config.ien_features), models.config.ien
+    room = split if split is not None and cfg.policy != "ien" else room_split(out, cfg, features)
+    tc = fit_train_config(cfg)
+    if cfg.policy == "ien":
+        tc = dataclasses.replace(tc, ien_features=features, ien=ien_cfg)
+    result = run_seen(tc, [room], cfg.people, Path(out) / "train", cfg.epochs, progress=progress,
+                      min_steps=cfg.min_steps, keep_model=Path(out) / "final.pt", ien_state=ien_state)
+    return result

@@ -1,0 +1,195 @@
+"""``nlos fit``: a tiny fit end to end (scene directory and bare scan), its report, ``nlos predict``
+on the room model, resuming, parallel rendering, and the error paths."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from nlos_spotlight.cli import main
+from nlos_spotlight.fit.config import PRESETS, FitConfig
+from nlos_spotlight.fit.run import dataset_config, fit_room, render_people
+from nlos_spotlight.scene.examples import corner_scene
+from nlos_spotlight.scene.io import save_scene
+
+TINY = dataclasses.replace(PRESETS["tiny"], people=24, heldout=6, transport_people=2, los_vertices=30,
+                           person_samples=64, body_faces=300, min_steps=8, epochs=1.0)
+"""Seconds: 36 people on 16x16 images, a 30-vertex candidate mesh."""
+
+
+@pytest.fixture(scope="module")
+def room_dir(tmp_path_factory):
+    """The bundled example scene without its person: a partition hides x > 0 from the tripod (its
+    region shrunk so that a person 0.25 m around stays behind the partition everywhere in it)."""
+    from nlos_spotlight.scene.format import HiddenRegion
+
+    d = tmp_path_factory.mktemp("room") / "example"
+    sc = corner_scene("example", resolution=16)
+    sc.human, sc.hidden_region = None, HiddenRegion(np.array([0.3, 1.0]), np.array([2.5, 3.5]))
+    save_scene(sc, d)
+    return d
+
+
+@pytest.fixture(scope="module")
+def fitted(room_dir, tmp_path_factory):
+    out = tmp_path_factory.mktemp("fit") / "model"
+    report = fit_room(str(room_dir), out, TINY, {}, progress=False)
+    return out, report
+
+
+def test_report_matches_its_contract(fitted):
+    out, report = fitted
+    on_disk = json.loads((out / "report.json").read_text())
+    assert on_disk["spot"] == report["spot"] and set(on_disk) >= {"spot", "heldout", "capture"}
+    s, h = on_disk["spot"], on_disk["heldout"]
+    assert isinstance(s["face"], int) and len(s["aim"]) == 3
+    assert h["people"] == TINY.heldout and 0 <= h["posture_accuracy"] <= 1 and np.isfinite(h["error_cm"])
+    assert on_disk["capture"]["burst_frames"] == TINY.burst_frames
+    # the aim point is the stored candidate's, and pan/tilt reproduce the beam's direction (closed form)
+    st = np.load(next((out / "data" / "scenes").iterdir()) / "static.npz")
+    np.testing.assert_allclose(s["aim"], st["aim_points"][s["face"]], atol=1e-9)
+    room = json.loads((out / "room.json").read_text())
+    proj, cam = np.array(room["projector"]["position"]), room["camera"]
+    az, tilt = np.radians(s["azimuth_deg"]), np.radians(s["tilt_deg"])
+    d = np.array([np.cos(tilt) * np.cos(az), np.cos(tilt) * np.sin(az), np.sin(tilt)])
+    np.testing.assert_allclose(d * s["distance_m"], np.array(s["aim"]) - proj, atol=1e-9)
+    view = np.array(cam["look_at"]) - np.array(cam["position"])
+    heading = np.degrees(np.arctan2(view[1], view[0]))
+    assert abs((s["azimuth_deg"] - heading - s["pan_deg"] + 180) % 360 - 180) < 1e-9
+    html = (out / "report.html").read_text()
+    assert html.count("data:image/png;base64,") == 4 and "Where to aim the projector" in html
+
+
+def test_heldout_scores_are_the_networks(fitted):
+    """report.json's error is the mean distance between the saved predictions and the truth."""
+    out, report = fitted
+    hp = np.load(out / "train" / "heldout.npz")
+    err = 100 * np.linalg.norm(hp["pred_xy"] - hp["true_xy"], axis=1).mean()
+    assert report["heldout"]["error_cm"] == pytest.approx(err, rel=1e-6)
+    assert report["heldout"]["posture_accuracy"] == pytest.approx(np.mean(hp["pred_posture"] == hp["true_posture"]))
+
+
+def test_predict_reads_the_room_model(fitted, tmp_path, capsys):
+    """A simulated burst of a held-out person through ``nlos predict ROOM_MODEL``: the room frame
+    is the network's frame moved onto the hidden region (closed form)."""
+    out, report = fitted
+    hp = np.load(out / "train" / "heldout.npz")
+    img, bg = hp["photo_image"], hp["photo_background"]
+    k = int(np.flatnonzero(~np.isnan(img[:, 0, 0, 0]))[0])
+    np.save(tmp_path / "burst.npy", np.stack([img[k]] * 2))
+    np.save(tmp_path / "empty.npy", bg[k])
+    assert main(["predict", str(out), str(tmp_path / "burst.npy"), "--background", str(tmp_path / "empty.npy"),
+                 "--burst", "2", "--json", str(tmp_path / "p.json")]) == 0
+    said = capsys.readouterr().out
+    assert "room model" in said and f"bursts of {TINY.burst_frames}" in said
+    frame = json.loads((tmp_path / "p.json").read_text())["frames"][0]
+    hr = report["room"]["hidden_region"]
+    center = (np.array(hr["min"]) + np.array(hr["max"])) / 2
+    room = np.array([frame["x_room_m"], frame["y_room_m"]])
+    assert np.linalg.norm(room - center) == pytest.approx(np.hypot(frame["x_m"], frame["y_m"]), abs=1e-6)
+
+
+def test_resume_redoes_nothing(fitted, room_dir):
+    out, report = fitted
+    stamps = {p: p.stat().st_mtime_ns for p in (out / "data").rglob("*.npz")}
+    again = fit_room(str(room_dir), out, TINY, {}, resume=True, progress=False)
+    assert again["heldout"] == report["heldout"]
+    assert {p: p.stat().st_mtime_ns for p in (out / "data").rglob("*.npz")} == stamps
+
+
+def test_two_processes_render_what_one_does(room_dir, tmp_path):
+    """Image samples split over processes (``SceneBuilder.build(part=...)``) are byte-identical."""
+    cfg = dataclasses.replace(TINY, people=6, heldout=1)
+    sums = []
+    for workers in (1, 2):
+        data = tmp_path / f"w{workers}"
+        render_people(dataset_config(cfg, room_dir), data, workers, progress=False)
+        sums.append(json.loads((data / "manifest.json").read_text())["content_sha256"])
+    assert sums[0] == sums[1]
+
+
+def test_bare_scan_with_flags(room_dir, tmp_path, capsys):
+    """A bare PLY (no colors: the documented gray) and the documented flags alone, from the CLI."""
+    from nlos_spotlight.scene.io import load_scene
+    from nlos_spotlight.scene.meshio import save_mesh
+
+    mesh = load_scene(room_dir).static_mesh()[0]
+    save_mesh(dataclasses.replace(mesh, vertex_colors=None, face_colors=None), tmp_path / "scan.ply")
+    cfg = ["--preset", "tiny", "--people", "12", "--quiet"]
+    args = ["fit", str(tmp_path / "scan.ply"), "--out", str(tmp_path / "m"), "--up", "z",
+            "--camera-position", "-1.6,3.2,1.5", "--camera-look-at", "-0.5,0,1.0", "--projector-position",
+            "-1.3,3.2,1.3", "--hidden-region", "0.3,1.0,2.5,3.5"]
+    assert main(args + cfg) == 0, capsys.readouterr().err
+    rec = json.loads((tmp_path / "m" / "room.json").read_text())
+    assert rec["materials"].startswith("no colors") and rec["hidden_region"]["source"] == "flags"
+    assert rec["hidden_region"]["floor_z"] == pytest.approx(0.0, abs=1e-9)
+
+
+def _fails(capsys, argv, *words):
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error:") and "\n" not in err and "Traceback" not in err, err
+    for w in words:
+        assert w in err, err
+
+
+def test_error_paths(room_dir, fitted, tmp_path, capsys):
+    out, _ = fitted
+    q = ["--preset", "tiny", "--quiet"]
+    _fails(capsys, ["fit", str(tmp_path / "nothing.ply"), "--out", str(tmp_path / "a")] + q, "nothing.ply")
+    _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "b"), "--hidden-region", "-2,1,-1,2"] + q,
+           "not hidden", "%")
+    _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "c"), "--hidden-region", "1,2,0,3"] + q,
+           "--hidden-region")
+    _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "d"), "--policy", "ien"] + q, "--checkpoint")
+    _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "e"), "--people", "0"] + q, "people")
+    _fails(capsys, ["fit", str(room_dir), "--out", str(out)] + q, "--resume")
+    _fails(capsys, ["fit", str(room_dir), "--out", str(out), "--resume", "--seed", "3"] + q, "seed")
+    (tmp_path / "file").write_text("x")
+    _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "file")] + q, "file")
+    assert not (tmp_path / "b").exists()  # refused input leaves nothing behind
+
+
+def test_config_checks():
+    with pytest.raises(Exception, match="policy"):
+        FitConfig(policy="nearest")
+    with pytest.raises(Exception, match="absurd"):
+        FitConfig(people=10**7)
+    assert PRESETS["default"].samples == 24 + 3000 + 200
+
+
+def test_ien_policy_uses_the_checkpoints_choice(room_dir, tmp_path):
+    """--policy ien: the spot is the trained IEN's most probable reachable candidate of the room,
+    stored for the image samples, and the one the network is trained and scored under."""
+    import sys
+    from pathlib import Path
+
+    import torch
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "train"))
+    from toy import toy_scene
+
+    from nlos_spotlight.data.scene_builder import los_mesh
+    from nlos_spotlight.fit.spot import ien_face
+    from nlos_spotlight.render.surface import StaticSurfaces
+    from nlos_spotlight.scene.io import load_scene
+    from nlos_spotlight.train.checkpoint import load_trained
+    from nlos_spotlight.train.config import TrainConfig
+    from nlos_spotlight.train.loop import Trainer
+
+    tr = Trainer(TrainConfig(), [toy_scene(n=8, res=8)], tmp_path)
+    with torch.no_grad():  # spread-out logits, so the choice is not a tie
+        for m in tr.ien.modules():
+            if isinstance(m, torch.nn.Linear):
+                torch.nn.init.normal_(m.weight, 0.0, 2.0 / m.in_features ** 0.5)
+    tr.save(tmp_path / "final.pt")
+    cfg = dataclasses.replace(TINY, people=12, heldout=3, policy="ien", checkpoint=str(tmp_path / "final.pt"))
+    report = fit_room(str(room_dir), tmp_path / "m", cfg, {}, progress=False)
+    scene = load_scene(tmp_path / "m" / "room")
+    los = los_mesh(StaticSurfaces(scene), scene.camera, cfg.los_vertices)
+    face = ien_face(load_trained(tmp_path / "final.pt"), scene, los)
+    stored = json.loads(next((tmp_path / "m" / "data" / "scenes").iterdir()).joinpath("spots.json").read_text())
+    assert report["spot"]["face"] == face and face in stored["spots"]
