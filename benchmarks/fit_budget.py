@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> None:
     rows = []
     for n in [int(v) for v in (args.people or str(cfg.people)).split(",")]:
         for e in [float(v) for v in args.epochs.split(",")]:
-            r = run_seen(fit_train_config(cfg), [split], n, runs / f"n{n}-e{e:g}", e, min_steps=cfg.min_steps)
+            r = run_seen(fit_train_config(cfg, model), [split], n, runs / f"n{n}-e{e:g}", e, min_steps=cfg.min_steps)
             rows.append({"people": n, "epochs": e, "steps": r.steps, "posture_accuracy": round(r.posture_accuracy, 1),
                          "posture3_accuracy": round(r.posture3_accuracy, 1), "error_cm": round(r.error_cm, 1),
                          "seconds": round(r.seconds, 1)})

@@ -61,7 +61,8 @@ class DatasetConfig:
     """Candidates every room also stores for its image samples (``nlos fit``: a trained IEN's choice)."""
     room: str = ""
     """An nlos-scene/1 directory every scene is built on instead of a procedural room (``nlos fit``:
-    a user's room; its people differ per scene); empty: procedural rooms."""
+    a user's room; its people differ per scene), relative to the dataset directory unless absolute;
+    empty: procedural rooms."""
 
     @property
     def num_scenes(self) -> int:
@@ -134,12 +135,12 @@ def load_config(spec: str) -> DatasetConfig:
 
 def validate(cfg: DatasetConfig, where: str) -> None:
     """Raise one NlosError naming the first bad field (``where``: the file or 'config')."""
-    for k in ("seed", "val_scenes", "test_scenes", "trajectories_per_test_scene", "trajectories_per_train_scene"):
+    for k in ("seed", "val_scenes", "test_scenes", "trajectories_per_test_scene", "trajectories_per_train_scene",
+              "transport_rank"):  # transport_rank 0 stores the transport in full
         if getattr(cfg, k) < 0:
             raise NlosError(f"{where}: {k} must be at least 0, got {getattr(cfg, k)}")
-    for k in ("transport_rank", "trajectory_frames"):
-        if getattr(cfg, k) < 1:
-            raise NlosError(f"{where}: {k} must be at least 1, got {getattr(cfg, k)}")
+    if cfg.trajectory_frames < 1:
+        raise NlosError(f"{where}: trajectory_frames must be at least 1, got {cfg.trajectory_frames}")
     if not 0 < cfg.frame_rate_hz < 1e4:
         raise NlosError(f"{where}: frame_rate_hz must be a positive number below 10000, got {cfg.frame_rate_hz}")
     for k in ("train_scenes", "samples_per_scene", "resolution", "los_vertices", "spot_samples",

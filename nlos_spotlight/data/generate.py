@@ -78,6 +78,13 @@ FORMAT_1_VALUES = {"transport_samples_per_scene": -1, "stored_spots_top": 6, "tr
 config.json lacks them): a run with those values may continue it; other missing fields differ."""
 
 
+def room_dir(out: Path, room: str) -> Path:
+    """``DatasetConfig.room`` as a directory: relative paths are relative to the dataset directory
+    (a room model can move as a whole)."""
+    p = Path(room)
+    return (p if p.is_absolute() else Path(out) / p).resolve()
+
+
 def _check_config(out: Path, cfg: DatasetConfig) -> None:
     path = out / "config.json"
     if path.exists():
@@ -86,6 +93,8 @@ def _check_config(out: Path, cfg: DatasetConfig) -> None:
         except json.JSONDecodeError:
             raise NlosError(f"{path}: corrupted (invalid JSON); remove it to start over") from None
         old = {**{k: v for k, v in FORMAT_1_VALUES.items() if k not in old}, **old}
+        if old.get("room") and cfg.room and room_dir(out, old["room"]) == room_dir(out, cfg.room):
+            old["room"] = cfg.room  # the same room, named from another place
         if old != cfg.to_dict():
             diff = sorted(k for k in set(old) | set(cfg.to_dict()) if old.get(k) != cfg.to_dict().get(k))
             raise NlosError(f"{out} holds a dataset made with another config (differs in: {', '.join(diff)})")
@@ -146,7 +155,8 @@ def _generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int], progr
         raise NlosError(f"--out: {out} is a file, not a dataset directory")
     out.mkdir(parents=True, exist_ok=True)
     _check_config(out, cfg)
-    remove_stale_temporaries(out)
+    if part[1] == 1:  # with several parts at work, another's temporary may be in flight
+        remove_stale_temporaries(out)
     mine = [p for p in plan(cfg) if p.index % n == i]
     total = sum(sample_count(cfg, p.split) for p in mine)
     t0 = time.perf_counter()

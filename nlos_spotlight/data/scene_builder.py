@@ -64,8 +64,8 @@ class SceneBuilder:
     """Deterministic construction of one scene directory; resumes at the first missing sample."""
 
     def __init__(self, cfg: DatasetConfig, plan, out: Path):
-        self.cfg, self.plan = cfg, plan
-        self.dir = out / "scenes" / plan.id
+        self.cfg, self.plan, self.out = cfg, plan, Path(out)
+        self.dir = self.out / "scenes" / plan.id
 
     def build(self, advance, part: tuple[int, int] = (0, 1)) -> None:
         """Build (or resume) the scene. ``part`` = (i, n): of the image samples, render only those
@@ -129,6 +129,8 @@ class SceneBuilder:
         for path, why in bad:
             console.print(f"{path}: {why}; rendering it again")
             path.unlink(missing_ok=True)
+            if (path.suffix in (".ply", ".obj") or path.name == "scene.json") and path.parent == self.dir:
+                (self.dir / "scene.json").unlink(missing_ok=True)  # the room's files are written again
         if bad:
             (self.dir / "done.json").unlink(missing_ok=True)
         return not bad
@@ -137,9 +139,9 @@ class SceneBuilder:
         """The scene without a person and its family: the config's given room, else a procedural one."""
         if self.cfg.room:
             from ..scene.io import load_scene
-            from .generate import ROOM_FAMILY
+            from .generate import ROOM_FAMILY, room_dir
 
-            scene = load_scene(self.cfg.room)
+            scene = load_scene(room_dir(self.out, self.cfg.room))
             if scene.hidden_region is None:
                 raise NlosError(f"{self.cfg.room}: the room has no hidden_region (where people are placed)")
             scene.human = None
@@ -173,14 +175,15 @@ class SceneBuilder:
         rng = np.random.default_rng([self.cfg.seed, self.plan.index, 1])
         m = self.cfg.samples_per_scene
         postures = rng.permutation(np.arange(m) % len(POSTURES))
-        pos = person_positions(scene, rng, m)
+        on_scan = bool(self.cfg.room)  # a scan's walls have holes: people stand on its floor
+        pos = person_positions(scene, rng, m, floor=on_scan)
         specs = [{"params": sample_body_params(rng, POSTURES[p]), "position": pos[k], "trajectory": -1, "frame": -1}
                  for k, p in enumerate(postures)]
         from .generate import trajectory_count
 
         walks = trajectory_count(self.cfg, self.plan.split)
         if walks > 0:
-            valid = person_positions(scene, rng, 2000)
+            valid = person_positions(scene, rng, 2000, floor=on_scan)
             for j in range(walks):
                 hr = scene.hidden_region
                 path = walking_trajectory(rng, valid, self.cfg.trajectory_frames, self.cfg.frame_rate_hz,

@@ -160,7 +160,7 @@ def mean_answer_cm(rooms: list[RoomSplit]) -> float:
 
 def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs: float,
              progress: bool = False, min_steps: int = 0, keep_model: Path | None = None,
-             ien_state: dict | None = None) -> SeenResult:
+             ien_state: dict | None = None, spots: list[int] | None = None) -> SeenResult:
     """Train ``cfg`` on the first ``n`` pool people of every room for about ``epochs`` passes (more
     where that is fewer than ``min_steps`` steps: small N), then score.
 
@@ -170,8 +170,8 @@ def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs
 
     ``keep_model``: also write the best weights there as a checkpoint ``nlos predict`` reads, and
     ``heldout.npz`` (``score``'s ``per_person`` and ``photos``) beside ``result.json``.
-    ``ien_state``: a trained IEN's weights (policy 'ien'): each room keeps that IEN's most probable
-    stored spot (``Trainer.freeze_spots``) instead of training one.
+    ``ien_state``: a trained IEN's weights to keep in the checkpoint (policy 'ien'), untrained here;
+    ``spots``: each room's spot face, fixed (``nlos fit --policy ien``: that IEN's choice).
     """
     import time
 
@@ -194,7 +194,10 @@ def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs
         tr.load(ckpt)
     if ien_state is not None:
         tr.ien.load_state_dict(ien_state)
-        tr.freeze_spots()
+    if spots is not None:
+        from ..lighting.base import Illumination
+
+        tr.fixed = [Illumination("spot", int(f)) for f in spots]
     from ..train.loop import _validation_pass
 
     stop = tr.stopped_early

@@ -42,8 +42,9 @@ class FitConfig:
     """Body sampling rule ('faces' or 'mc', render/person.py)."""
     body_faces: int = 1500
     """Decimated body faces."""
-    epochs: float = 10.0
-    """Passes over the training people."""
+    epochs: float = 60.0
+    """Passes over the training people (benchmarks/fit_budget.py on copyroom, 3,000 people: 10 ->
+    50% / 16.6 cm, 30 -> 55% / 14.6 cm, 60 -> 66% / 13.0 cm; a few minutes beside the rendering)."""
     min_steps: int = 800
     """At least this many optimizer steps of 64 images."""
     workers: int = 2

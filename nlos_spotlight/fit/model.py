@@ -53,9 +53,12 @@ def load_room_model(path: str | Path) -> RoomModel | None:
         return None
     try:
         report = json.loads(rep.read_text())
-        report["capture"]["burst_frames"], report["room"]["hidden_region"]["min"], report["spot"]["face"]
+        c, r, s = report["capture"], report["room"], report["spot"]
+        int(c["burst_frames"]), float(c["exposure_s"]), int(s["face"]), float(s["pan_deg"]), float(s["tilt_deg"])
+        [float(v) for v in (*r["hidden_region"]["min"], *r["hidden_region"]["max"], *r["camera"]["position"],
+                            *r["camera"]["look_at"])]
     except FileNotFoundError:
         raise NlosError(f"{p}: the fit has not finished (no report.json); rerun nlos fit with --resume") from None
-    except (json.JSONDecodeError, KeyError, TypeError):
+    except (json.JSONDecodeError, KeyError, TypeError, ValueError):
         raise NlosError(f"{rep}: corrupted or not a room model report") from None
     return RoomModel(p, report)

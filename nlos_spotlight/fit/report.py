@@ -36,9 +36,11 @@ def capture_record(out: Path, cfg: FitConfig, face: int) -> dict:
     from ..train.imaging import capture_sensor
     from .spot import scene_dir
 
+    from .train import capture_overrides
+
     with np.load(scene_dir(out) / "static.npz") as st:
         free = st["direct"][face] + st["ambient"]
-    sensor = capture_sensor(free.shape[:2], {"burst_frames": cfg.burst_frames})
+    sensor = capture_sensor(free.shape[:2], capture_overrides(out, cfg))
     t = auto_exposure(torch.as_tensor(free, dtype=torch.float32), sensor)
     return {"burst_frames": cfg.burst_frames, "exposure_s": t, "burst_s": t * cfg.burst_frames,
             "metering": sensor.metering, "target_mean_fraction": sensor.target_mean_fraction,
@@ -46,7 +48,8 @@ def capture_record(out: Path, cfg: FitConfig, face: int) -> dict:
             "resolution": [int(free.shape[0]), int(free.shape[1])],
             "background": "an empty-room burst with the same settings before the person enters; the network "
                           "reads the photograph minus it",
-            "camera": "the APS-C mirrorless class of DESIGN section 6 (render.sensor.SensorConfig defaults)"}
+            "camera": "the APS-C mirrorless class of DESIGN section 6 (render.sensor.SensorConfig defaults, "
+                      "with the room scene's sensor overrides)", "sensor": sensor.to_dict()}
 
 
 def write_fit_report(out: Path, cfg: FitConfig, room: dict, spot: dict, result, timing: dict) -> dict:
@@ -59,7 +62,8 @@ def write_fit_report(out: Path, cfg: FitConfig, room: dict, spot: dict, result, 
     true_w, pred_w = region_to_world(hp["true_xy"], room), region_to_world(hp["pred_xy"], room)
     err_cm = 100 * np.linalg.norm(pred_w - true_w, axis=1)
     report = {
-        "spot": {k: spot[k] for k in ("face", "aim", "pan_deg", "tilt_deg", "azimuth_deg", "distance_m")},
+        "spot": {k: spot.get(k) for k in ("face", "aim", "pan_deg", "tilt_deg", "azimuth_deg", "distance_m",
+                                            "landing")},
         "heldout": {"people": int(len(err_cm)), "posture_accuracy": result.posture_accuracy / 100,
                     "posture3_accuracy": result.posture3_accuracy / 100, "error_cm": float(err_cm.mean()),
                     "median_error_cm": float(np.median(err_cm)), "mean_answer_cm": result.mean_answer_cm,

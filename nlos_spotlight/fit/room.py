@@ -48,6 +48,8 @@ MAX_VISIBLE_FRACTION = 0.01
 through a scan's holes); more is refused."""
 MIN_REGION_SIDE_M = 1.2
 """Smallest side of a default hidden region, m (a person and room to move)."""
+MIN_STANDABLE_FRACTION = 0.02
+"""Smallest fraction of any hidden region where a person may stand."""
 MIN_VALID_FRACTION = 0.15
 """Smallest fraction of a default hidden region where a person may stand (synthetic rooms: the same)."""
 
@@ -148,11 +150,28 @@ def check_hidden(engine, camera: Camera, projector: Projector, region: HiddenReg
     return rec
 
 
+def check_standable(scene: Scene, spacing: float = 0.1) -> float:
+    """Fraction of the hidden region (a ``spacing`` grid) where a person may stand; a region with
+    almost none is refused (people are placed there by rejection sampling)."""
+    from ..world.placement import SceneGeometry
+
+    hr = scene.hidden_region
+    gx = np.arange(hr.min[0] + spacing / 2, hr.max[0], spacing)
+    gy = np.arange(hr.min[1] + spacing / 2, hr.max[1], spacing)
+    xy = np.stack(np.meshgrid(gx, gy, indexing="ij"), -1).reshape(-1, 2)
+    frac = float(SceneGeometry(scene).valid_positions(xy, floor=True).mean()) if len(xy) else 0.0
+    if frac < MIN_STANDABLE_FRACTION:
+        raise NlosError(f"hidden region {hr.min.tolist()}-{hr.max.tolist()}: a person may stand on only "
+                        f"{100 * frac:.1f}% of it (on the scan's floor, clear of furniture, 0.6-2.4 m from a surface "
+                        "the camera sees, seeing it); move it or scan its floor")
+    return frac
+
+
 def default_region(scene: Scene, engine, max_side: float = 4.0, spacing: float = 0.1) -> HiddenRegion:
     """A floor rectangle (sides :data:`MIN_REGION_SIDE_M` to ``max_side``) whose every point is
     hidden (:func:`seen_by`, grown by 0.25 m), holding the most floor where a person may stand
-    (``world.placement.valid_positions``: clear of furniture, 0.6-2.4 m from a surface the camera
-    sees, seeing it), at least :data:`MIN_VALID_FRACTION` of it as in the synthetic rooms; ties go
+    (``world.placement.valid_positions``: on the scan's floor, clear of furniture, 0.6-2.4 m from a
+    surface the camera sees, seeing it), at least :data:`MIN_VALID_FRACTION` of it as in the synthetic rooms; ties go
     to the one nearest the camera's look-at point. People are placed on that floor only."""
     from scipy import ndimage
 
@@ -174,7 +193,7 @@ def default_region(scene: Scene, engine, max_side: float = 4.0, spacing: float =
     allowed = ~seen
     valid = allowed.ravel().copy()
     idx = np.flatnonzero(valid)
-    valid[idx] = geo.valid_positions(xy[idx])
+    valid[idx] = geo.valid_positions(xy[idx], floor=True)
     valid = valid.reshape(xx.shape)
     sat = np.pad(allowed.astype(np.int32).cumsum(0).cumsum(1), ((1, 0), (1, 0)))
     sat_v = np.pad(valid.astype(np.int32).cumsum(0).cumsum(1), ((1, 0), (1, 0)))
@@ -241,4 +260,5 @@ def room_setup(source: str | Path, resolution: int, camera_position=None, camera
         scene.hidden_region = default_region(scene, setup.engine)
         sources["hidden_region"] = "default"
     hidden = check_hidden(setup.engine, camera, proj, scene.hidden_region)
+    hidden["standable_fraction"] = check_standable(scene)
     return RoomSetup(scene, sources, setup.file_to_world, hidden)

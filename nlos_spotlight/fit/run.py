@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import multiprocessing as mp
+import os
 import time
 from pathlib import Path
 
@@ -23,28 +24,49 @@ from ..errors import NlosError
 from .config import FitConfig
 
 FORMAT = "nlos-room-model/1"
+RESUMABLE_CHANGES = ("workers",)
+"""Settings a resumed fit may change: the process count (the output is byte-identical)."""
 
 
 def dataset_config(cfg: FitConfig, room_dir: Path, extra_spots: list[int] | None = None):
-    """The one-room dataset of a fit (``DatasetConfig`` over the saved room)."""
+    """The one-room dataset of a fit (``DatasetConfig`` over the saved room, named relative to the
+    dataset directory ``ROOM_MODEL/data``, so the room model can move)."""
     from ..data.config import DatasetConfig
 
     return DatasetConfig(name="fit", seed=cfg.seed, train_scenes=1, val_scenes=0, test_scenes=0,
                          samples_per_scene=cfg.samples, transport_samples_per_scene=cfg.transport_people,
                          trajectories_per_test_scene=0, trajectories_per_train_scene=0, resolution=cfg.resolution,
                          los_vertices=cfg.los_vertices, body_faces=cfg.body_faces, person_samples=cfg.person_samples,
-                         person_quadrature=cfg.person_quadrature, room=str(room_dir.resolve()),
+                         person_quadrature=cfg.person_quadrature, room=str(Path("..") / room_dir.name),
                          extra_spots=list(extra_spots or []))
 
 
 def _part(dcfg, data: str, i: int, n: int) -> None:
-    """One rendering process: its share of the image samples (after part 0 stored the spots)."""
+    """One rendering process: its share of the image samples (after part 0 stored the spots).
+    It dies with the fit (Linux: the parent-death signal), and fails with one line, not a traceback."""
+    import signal
+    import sys
+
+    try:
+        import ctypes
+
+        ctypes.CDLL("libc.so.6").prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux: the wait below still notices a dead parent
+        pass
     from ..data.generate import generate, plan
 
-    spots = Path(data) / "scenes" / plan(dcfg)[0].id / "spots.json"
-    while not spots.exists():
-        time.sleep(1.0)
-    generate(dcfg, data, progress=False, part=(i, n))
+    try:
+        spots = Path(data) / "scenes" / plan(dcfg)[0].id / "spots.json"
+        parent = os.getppid()
+        while not spots.exists():
+            if os.getppid() != parent:  # the fit was killed: nothing to wait for
+                return
+            time.sleep(1.0)
+        generate(dcfg, data, progress=False, part=(i, n))
+    except Exception as exc:  # the main process reports the failure; this is its reason
+        print(f"error: rendering process {i}: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}",
+              file=sys.stderr)
+        sys.exit(2)
 
 
 def render_people(dcfg, data: Path, workers: int, progress: bool) -> None:
@@ -54,13 +76,20 @@ def render_people(dcfg, data: Path, workers: int, progress: bool) -> None:
     if workers <= 1 or (data / "manifest.json").exists():
         generate(dcfg, data, progress=progress)
         return
+    from ..data.store import remove_stale_temporaries
+
     data.mkdir(parents=True, exist_ok=True)
+    remove_stale_temporaries(data)  # before any part writes: later, another's temporary may be in flight
     ctx = mp.get_context("spawn")
     procs = [ctx.Process(target=_part, args=(dcfg, str(data), i, workers), daemon=True) for i in range(1, workers)]
     for p in procs:
         p.start()
     try:
         generate(dcfg, data, progress=progress, part=(0, workers))
+    except BaseException:  # an error or Ctrl-C: stop the other parts too (their files are kept)
+        for p in procs:
+            p.terminate()
+        raise
     finally:
         for p in procs:
             p.join()
@@ -83,9 +112,9 @@ def check_out(out: Path, record: dict, resume: bool) -> None:
             raise NlosError(f"{path}: corrupted (invalid JSON); remove {out} to start over") from None
         if not resume:
             raise NlosError(f"{out} already holds a fit: pass --resume to continue it, or choose another --out")
-        if old.get("settings") != record["settings"]:
-            a, b = old.get("settings", {}), record["settings"]
-            diff = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
+        a, b = old.get("settings", {}), record["settings"]
+        diff = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k) and k not in RESUMABLE_CHANGES)
+        if diff:
             raise NlosError(f"{out} holds a fit with other settings (differs in: {', '.join(diff)})")
         return
     if out.exists() and any(out.iterdir()):
@@ -126,6 +155,10 @@ def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = F
     out = Path(out)
     record = {"format": FORMAT, "settings": {"room": str(Path(room).resolve()), **flags, **cfg.to_dict()},
               "versions": versions()}
+    if cfg.policy == "ien":  # a bad checkpoint is refused before anything is written
+        from .spot import check_ien_run
+
+        check_ien_run(cfg.checkpoint)
     check_out(out, record, resume)
     clock = StepClock(out)
     console.rule("1/5 room")
@@ -142,6 +175,7 @@ def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = F
     split = room_split(out, cfg, ["normals"])
     spot = spot_record(out, extra[0] if extra else policy_face(cfg, split))
     console.print(spot["explain"])
+    clock.lap("spot_s")
     console.rule("4/5 train")
     result = train_room(cfg, out, progress, split)
     if result.spots[0] != spot["face"]:
@@ -155,7 +189,8 @@ def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = F
     h = report["heldout"]
     console.print(f"held-out people: {h['people']}, posture {100 * h['posture_accuracy']:.1f}% (upright/sitting/"
                   f"crouching {100 * h['posture3_accuracy']:.1f}%), error {h['error_cm']:.1f} cm; fit "
-                  f"{clock.total / 60:.1f} min; room model: {out.resolve()} (final.pt, report.json, report.html)")
+                  f"{report['timing_s']['total_s'] / 60:.1f} min before the report; room model: {out.resolve()} "
+                  "(final.pt, report.json, report.html)")
     return report
 
 
@@ -212,10 +247,9 @@ def _ien_spot(cfg: FitConfig, room_dir: Path) -> list[int]:
     from ..data.scene_builder import los_mesh
     from ..render.surface import StaticSurfaces
     from ..scene.io import load_scene
-    from ..train.checkpoint import load_trained
-    from .spot import ien_face
+    from .spot import check_ien_run, ien_face
 
-    models = load_trained(cfg.checkpoint)
+    models = check_ien_run(cfg.checkpoint)
     scene = load_scene(room_dir)
     los = los_mesh(StaticSurfaces(scene), scene.camera, cfg.los_vertices)
     return [ien_face(models, scene, los)]

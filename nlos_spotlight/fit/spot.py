@@ -12,6 +12,17 @@ from ..errors import NlosError
 from ..scene.format import Scene, TriMesh
 
 
+def check_ien_run(checkpoint: str):
+    """A trained run whose IEN can pick spots (policy 'ien'), loaded; else one line saying why."""
+    from ..train.checkpoint import load_trained
+
+    models = load_trained(checkpoint)
+    if models.config.policy != "ien":
+        raise NlosError(f"{models.path}: this run used the fixed '{models.config.policy}' spot policy, so its IEN "
+                        "was never trained; --checkpoint needs a run trained with policy 'ien'")
+    return models
+
+
 def ien_face(models, scene: Scene, los: TriMesh) -> int:
     """The most probable landed candidate of a trained IEN on ``los`` (the room's candidates)."""
     from ..apps.spotlight import SpotlightSetup, ien_logits, projector_reach
@@ -56,8 +67,13 @@ def spot_record(out: Path, face: int) -> dict:
     explain = (f"spot: candidate face {face} at ({target[0]:+.2f}, {target[1]:+.2f}, {target[2]:+.2f}) m; aim the "
                f"projector {aim.distance_m:.2f} m away: pan {aim.pan_deg:+.1f} deg (+ = left of the camera's view), "
                f"tilt {aim.tilt_deg:+.1f} deg (+ = up)")
+    if landing is not None and aim.landing_offset_m > 0.02:
+        explain += (f"; the beam's center meets the scan at ({landing[0]:+.2f}, {landing[1]:+.2f}, "
+                     f"{landing[2]:+.2f}) m, {100 * aim.landing_offset_m:.0f} cm from the aim point (the candidate "
+                     "face is decimated): check the spot there")
     return {"face": int(face), "aim": target.tolist(), "pan_deg": aim.pan_deg, "tilt_deg": aim.tilt_deg,
-            "azimuth_deg": aim.azimuth_deg, "distance_m": aim.distance_m, "explain": explain,
+            "azimuth_deg": aim.azimuth_deg, "distance_m": aim.distance_m,
+            "landing": None if landing is None else landing.tolist(), "explain": explain,
             "convention": aim.to_dict()["convention"]}
 
 

@@ -10,10 +10,21 @@ from ..train.config import TrainConfig
 from .config import FitConfig
 
 
-def fit_train_config(cfg: FitConfig) -> TrainConfig:
-    """``seen_config`` for one room with the fit's capture (``burst_frames``) and spot policy."""
+def capture_overrides(out: Path | None, cfg: FitConfig) -> dict:
+    """The sensor settings of the fit's photographs: the room scene's ``sensor`` block (a scene
+    directory may carry one), then the fit's burst."""
+    sensor = {}
+    if out is not None and (Path(out) / "room" / "scene.json").exists():
+        import json
+
+        sensor = json.loads((Path(out) / "room" / "scene.json").read_text()).get("sensor") or {}
+    return {**sensor, "burst_frames": cfg.burst_frames}
+
+
+def fit_train_config(cfg: FitConfig, out: Path | None = None) -> TrainConfig:
+    """``seen_config`` for one room with the fit's capture (``capture_overrides``) and spot policy."""
     tc = seen_config(1, seed=cfg.seed, noise=True, policy=cfg.policy)
-    return dataclasses.replace(tc, name="room-model", sensor={"burst_frames": cfg.burst_frames})
+    return dataclasses.replace(tc, name="room-model", sensor=capture_overrides(out, cfg))
 
 
 def room_split(out: Path, cfg: FitConfig, features: list[str]) -> RoomSplit:
@@ -36,9 +47,12 @@ def train_room(cfg: FitConfig, out: Path, progress: bool, split: RoomSplit | Non
         models = load_trained(cfg.checkpoint)
         ien_state, features, ien_cfg = models.ien.state_dict(), list(models.config.ien_features), models.config.ien
     room = split if split is not None and cfg.policy != "ien" else room_split(out, cfg, features)
-    tc = fit_train_config(cfg)
+    tc, spots = fit_train_config(cfg, out), None
     if cfg.policy == "ien":
+        import json
+
         tc = dataclasses.replace(tc, ien_features=features, ien=ien_cfg)
+        spots = json.loads((Path(out) / "data" / "config.json").read_text())["extra_spots"][:1]
     result = run_seen(tc, [room], cfg.people, Path(out) / "train", cfg.epochs, progress=progress,
-                      min_steps=cfg.min_steps, keep_model=Path(out) / "final.pt", ien_state=ien_state)
+                      min_steps=cfg.min_steps, keep_model=Path(out) / "final.pt", ien_state=ien_state, spots=spots)
     return result

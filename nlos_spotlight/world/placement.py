@@ -287,6 +287,16 @@ def sees_relay(engine: RayEngine, xy: np.ndarray, floor_z: float, los: LosPoints
     return frac >= min_fraction
 
 
+def on_floor(engine: RayEngine, xy: np.ndarray, floor_z: float, tol: float = 0.1) -> np.ndarray:
+    """(N,) bool: a ray down from 0.3 m above the floor at ``xy`` meets a surface within ``tol`` of
+    the floor height (a scanned room: the person stands on its floor, not outside its walls)."""
+    if len(xy) == 0:
+        return np.zeros(0, dtype=bool)
+    org = np.concatenate([xy, np.full((len(xy), 1), floor_z + 0.3)], 1)
+    h = engine.first_hit(org, np.broadcast_to([0.0, 0.0, -1.0], org.shape).copy())
+    return h.hit & (np.abs(h.t - 0.3) <= tol)
+
+
 class SceneGeometry:
     """Ray engine and camera-visible points of a scene (built once, reused by the checks)."""
 
@@ -297,17 +307,22 @@ class SceneGeometry:
         self.los = thin(los_points(self.engine, scene.camera, los_n))
 
     def valid_positions(self, xy: np.ndarray, distance=(0.6, 2.4), radius: float = 0.3,
-                        body_height: float = 1.9, min_seen: float = 0.02) -> np.ndarray:
+                        body_height: float = 1.9, min_seen: float = 0.02, floor: bool = False) -> np.ndarray:
         """(N,) bool: inside the region, at an allowed LOS distance, free of static geometry, and
-        seeing at least ``min_seen`` of the camera-visible points."""
+        seeing at least ``min_seen`` of the camera-visible points; with ``floor``, also standing on
+        a floor (:func:`on_floor`: scans, whose walls have holes a person outside could see through)."""
         reg = self.scene.hidden_region
-        return valid_positions(self.engine, self.los, reg, xy, distance, radius, body_height, min_seen)
+        return valid_positions(self.engine, self.los, reg, xy, distance, radius, body_height, min_seen, floor)
 
 
 def valid_positions(engine: RayEngine, los: LosPoints, region: HiddenRegion, xy: np.ndarray, distance=(0.6, 2.4),
-                    radius: float = 0.3, body_height: float = 1.9, min_seen: float = 0.02) -> np.ndarray:
+                    radius: float = 0.3, body_height: float = 1.9, min_seen: float = 0.02,
+                    floor: bool = False) -> np.ndarray:
     """See :meth:`SceneGeometry.valid_positions`; cheapest tests first."""
     ok = np.all((xy >= region.min) & (xy <= region.max), axis=1)
+    if floor:
+        idx = np.flatnonzero(ok)
+        ok[idx] = on_floor(engine, xy[idx], region.floor_z)
     idx = np.flatnonzero(ok)
     d = los_distance(xy[idx], region.floor_z, los, body_height, distance[1])
     ok[idx] = (d >= distance[0]) & (d <= distance[1])

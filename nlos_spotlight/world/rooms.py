@@ -321,11 +321,13 @@ def scene_geometry(scene: Scene) -> SceneGeometry:
 
 
 def person_positions(scene: Scene, rng: np.random.Generator, n: int, distance_range: tuple[float, float] = (0.6, 2.4),
-                     radius: float = 0.3, body_height: float = 1.9, min_seen: float = 0.02) -> np.ndarray:
+                     radius: float = 0.3, body_height: float = 1.9, min_seen: float = 0.02,
+                     floor: bool = False) -> np.ndarray:
     """(n, 2) floor positions drawn uniformly (rejection sampling) over the part of the hidden region
     where a person is ``distance_range`` (m) from the nearest camera-visible LOS surface facing them,
     a cylinder of ``radius`` around the body axis meets no static geometry, and the body sees at
-    least ``min_seen`` of the camera-visible LOS points (so its light can reach the image)."""
+    least ``min_seen`` of the camera-visible LOS points (so its light can reach the image); with
+    ``floor``, on a floor (``world.placement.on_floor``: scanned rooms)."""
     if scene.hidden_region is None:
         raise NlosError("person_positions: the scene has no hidden_region")
     if n <= 0:
@@ -336,12 +338,13 @@ def person_positions(scene: Scene, rng: np.random.Generator, n: int, distance_ra
     while sum(len(o) for o in out) < n:
         m = max(64, 3 * n)
         xy = rng.uniform(reg.min, reg.max, size=(m, 2))
-        ok = geo.valid_positions(xy, distance_range, radius, body_height, min_seen)
+        ok = geo.valid_positions(xy, distance_range, radius, body_height, min_seen, floor)
         out.append(xy[ok])
         tried += m
         if tried > 2000 * n + 20000 and sum(len(o) for o in out) == 0:
             raise NlosError("person_positions: no valid position in the hidden region "
-                            f"(distance {distance_range[0]}-{distance_range[1]} m, radius {radius} m)")
+                            f"(distance {distance_range[0]}-{distance_range[1]} m, radius {radius} m"
+                            f"{', on a floor' if floor else ''})")
     return np.concatenate(out)[:n]
 
 

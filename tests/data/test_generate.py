@@ -171,7 +171,7 @@ def test_bad_values_are_refused_before_anything_is_written(tmp_path, capsys):
     assert main(["generate", "tiny", "--out", str(tmp_path / "d"), "--seed=-1"]) == 2
     assert "--seed" in capsys.readouterr().err and not (tmp_path / "d").exists()
     bad = tmp_path / "bad.yaml"
-    for text, field in (("val_scenes: -1", "val_scenes"), ("transport_rank: 0", "transport_rank"),
+    for text, field in (("val_scenes: -1", "val_scenes"), ("transport_rank: -1", "transport_rank"),
                         ("trajectory_frames: -3", "trajectory_frames"), ("frame_rate_hz: 0", "frame_rate_hz"),
                         ("trajectories_per_test_scene: -1", "trajectories_per_test_scene")):
         bad.write_text(text + "\n")

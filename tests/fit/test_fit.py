@@ -100,12 +100,12 @@ def test_resume_redoes_nothing(fitted, room_dir):
     assert {p: p.stat().st_mtime_ns for p in (out / "data").rglob("*.npz")} == stamps
 
 
-def test_two_processes_render_what_one_does(room_dir, tmp_path):
+def test_two_processes_render_what_one_does(room_dir):
     """Image samples split over processes (``SceneBuilder.build(part=...)``) are byte-identical."""
     cfg = dataclasses.replace(TINY, people=6, heldout=1)
     sums = []
     for workers in (1, 2):
-        data = tmp_path / f"w{workers}"
+        data = room_dir.parent / f"w{workers}"  # the room is named relative to the data: ../example
         render_people(dataset_config(cfg, room_dir), data, workers, progress=False)
         sums.append(json.loads((data / "manifest.json").read_text())["content_sha256"])
     assert sums[0] == sums[1]
@@ -144,13 +144,15 @@ def test_error_paths(room_dir, fitted, tmp_path, capsys):
            "not hidden", "%")
     _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "c"), "--hidden-region", "1,2,0,3"] + q,
            "--hidden-region")
+    _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "c"), "--hidden-region", "3,1,4,2"] + q,
+           "may stand on only 0.0%")  # beyond the room's floor: hidden, but nowhere to stand
     _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "d"), "--policy", "ien"] + q, "--checkpoint")
     _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "e"), "--people", "0"] + q, "people")
     _fails(capsys, ["fit", str(room_dir), "--out", str(out)] + q, "--resume")
     _fails(capsys, ["fit", str(room_dir), "--out", str(out), "--resume", "--seed", "3"] + q, "seed")
     (tmp_path / "file").write_text("x")
     _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "file")] + q, "file")
-    assert not (tmp_path / "b").exists()  # refused input leaves nothing behind
+    assert not (tmp_path / "b").exists() and not (tmp_path / "c").exists()  # refused input leaves nothing
 
 
 def test_config_checks():
