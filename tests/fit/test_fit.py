@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -167,7 +168,6 @@ def test_ien_policy_uses_the_checkpoints_choice(room_dir, tmp_path):
     """--policy ien: the spot is the trained IEN's most probable reachable candidate of the room,
     stored for the image samples, and the one the network is trained and scored under."""
     import sys
-    from pathlib import Path
 
     import torch
 
@@ -195,3 +195,33 @@ def test_ien_policy_uses_the_checkpoints_choice(room_dir, tmp_path):
     face = ien_face(load_trained(tmp_path / "final.pt"), scene, los)
     stored = json.loads(next((tmp_path / "m" / "data" / "scenes").iterdir()).joinpath("spots.json").read_text())
     assert report["spot"]["face"] == face and face in stored["spots"]
+
+
+def test_killed_fit_resumes_to_the_same_model(fitted, room_dir, tmp_path):
+    """Kill a two-process fit while it renders, rerun with --resume: the people and the scores are
+    those of the uninterrupted one-process fit (nothing lost, nothing rendered twice differently)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out, report = fitted
+    dest = tmp_path / "killed"
+    code = ("import sys, dataclasses, json; sys.path.insert(0, sys.argv[2]); from test_fit import TINY; "
+            "from nlos_spotlight.fit.run import fit_room; "
+            "fit_room(sys.argv[3], sys.argv[1], dataclasses.replace(TINY, workers=2), {}, resume=True, progress=False)")
+    cmd = [sys.executable, "-c", code, str(dest), str(Path(__file__).parent), str(room_dir)]
+    env = {**os.environ, "NLOS_QUIET": "1"}
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.time() + 300
+    while time.time() < deadline and len(list(dest.glob("data/scenes/*/images/*.npz"))) < 3 and proc.poll() is None:
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)  # the fit and its rendering process
+    proc.wait()
+    assert not (dest / "report.json").exists(), "killed too late to test resuming"
+    res = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    sha = lambda d: json.loads((d / "data" / "manifest.json").read_text())["content_sha256"]
+    assert sha(dest) == sha(out)
+    assert json.loads((dest / "report.json").read_text())["heldout"] == report["heldout"]
