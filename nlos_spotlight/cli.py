@@ -139,8 +139,11 @@ def cmd_train(args: argparse.Namespace) -> None:
         if args.seed < 0:
             raise NlosError(f"--seed: expected a non-negative integer, got {args.seed}")
         cfg.seed = args.seed
-    tr = train(cfg, input_dir(args.data, "--data", "dataset directory"), output_dir(args.out, "--out"),
-               resume=args.resume, progress=not args.quiet)
+    out = output_dir(args.out, "--out")
+    if args.resume and not (out / "checkpoint.pt").exists():
+        console.print(f"note: --resume: {out / 'checkpoint.pt'} does not exist; starting the run from step 0")
+    tr = train(cfg, input_dir(args.data, "--data", "dataset directory"), out, resume=args.resume,
+               progress=not args.quiet)
     if tr.rank == 0:
         console.print(f"trained {tr.step} steps; run in {Path(args.out).resolve()} (config.json, metrics.csv, final.pt)")
 

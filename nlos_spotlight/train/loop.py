@@ -444,8 +444,6 @@ def train(cfg: TrainConfig, data_dir: str | Path, out: str | Path, resume: bool 
         tr.load(ckpt)
         for log in ("metrics.csv", "validation.csv"):  # rows written after the checkpoint are redone
             truncate_log(out / log, tr.step)
-    elif resume and tr.rank == 0:
-        console.print(f"note: {ckpt} does not exist; starting the run from step 0")
     if tr.rank == 0:
         (out / "config.json").write_text(json.dumps({"train": cfg.to_dict(), "data": str(data_dir)}, indent=1))
     metrics = out / "metrics.csv"
