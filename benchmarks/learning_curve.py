@@ -9,6 +9,10 @@ held out as test, 10 % as validation), train the NLOS network on the first N peo
 * ResNet-18 (the paper's backbone) once at the largest N beside the lighter backbone;
 * with ``--burst N``, the oracle spot at the largest N with a still capture of N frames averaged.
 
+``--per-room`` trains one network per room (what ``nlos fit`` does for a user's room) instead of one
+network on every room's people; its scores pool the rooms' test people, and its chance level is each
+room's own mean-position answer.
+
 Each run is resumable and keeps its scores in ``--runs``/KEY/result.json; the table is
 ``--out``/learning-curve.csv (``protocol,capture,policy,people_per_room,posture_accuracy,
 posture3_accuracy,error_cm,crb_cm,seeds``; accuracies in %, errors in cm), with ``arch`` and
@@ -62,6 +66,7 @@ def plan(args) -> list[dict]:
     runs += [dict(capture=f"burst-{args.burst}", policy="oracle", n=sizes[-1], backbone=args.backbone)] \
         if args.burst > 1 else []
     runs = [] if args.other_networks_only else runs
+    runs = [r for r in runs if r["capture"] in args.only.split(",")] if args.only else runs
     other_n = args.other_networks_size or sizes[-1]
     if args.resnet18:
         runs.append(dict(capture="default", policy="oracle", n=other_n, backbone="resnet18"))
@@ -70,6 +75,25 @@ def plan(args) -> list[dict]:
 
 
 def run_one(args, rooms, spec: dict, seed: int):
+    """One run of the plan: a network on every room, or with ``--per-room`` one per room, pooled."""
+    if not args.per_room:
+        return run_spec(args, rooms, spec, seed, "")
+    return pool_results([run_spec(args, [r], spec, seed, f"/room-{i}") for i, r in enumerate(rooms)],
+                        [r.test.num_samples for r in rooms])
+
+
+def pool_results(res: list, tests: list[int]):
+    """Per-room results as one: scores weighted by each room's test people, confusions summed,
+    steps and seconds summed (the compute of all the rooms' networks)."""
+    w = np.asarray(tests, float) / sum(tests)
+    avg = lambda k: float(np.dot(w, [getattr(r, k) for r in res]))
+    return dataclasses.replace(
+        res[0], **{k: avg(k) for k in ("posture_accuracy", "posture3_accuracy", "error_cm", "mean_answer_cm")},
+        confusion=np.sum([r.confusion for r in res], axis=0).tolist(), spots=[s for r in res for s in r.spots],
+        steps=sum(r.steps for r in res), seconds=sum(r.seconds for r in res))
+
+
+def run_spec(args, rooms, spec: dict, seed: int, sub: str):
     cfg = base_config(args, seed, spec["backbone"], len(rooms))
     cfg = dataclasses.replace(cfg, sensor_noise=spec["capture"] != "noise-free")
     if spec["capture"].startswith("burst-"):  # a still capture averaging N frames (DESIGN section 6)
@@ -79,9 +103,9 @@ def run_one(args, rooms, spec: dict, seed: int):
     else:
         cfg = dataclasses.replace(cfg, policy=spec["policy"])
     label = arch_label(spec["backbone"], args.stem, args.pool_grid).replace("/", "-")
-    key = f"{spec['capture']}-{spec['policy']}-{spec['n']}-{label}-s{seed}"
+    key = f"{spec['capture']}-{spec['policy']}-{spec['n']}-{label}-s{seed}" + ("-per-room" if args.per_room else "")
     epochs = args.epochs * (args.resnet18_epoch_scale if spec["backbone"] == "resnet18" else 1.0)
-    return run_seen(cfg, rooms, spec["n"], Path(args.runs) / key, epochs, progress=not args.quiet,
+    return run_seen(cfg, rooms, spec["n"], Path(args.runs) / (key + sub), epochs, progress=not args.quiet,
                     min_steps=args.min_steps)
 
 
@@ -115,6 +139,9 @@ def main() -> None:
                     help="also the oracle spot at the largest size with a still capture of this many frames")
     ap.add_argument("--other-networks-only", action="store_true",
                     help="only the ResNet-18 and baseline runs (a second process beside the curve's)")
+    ap.add_argument("--per-room", action="store_true",
+                    help="one network per room (as nlos fit trains), scores pooled over the rooms")
+    ap.add_argument("--only", default="", help="only these captures of the plan, comma-separated (e.g. burst-16)")
     ap.add_argument("--epochs", type=float, default=40)
     ap.add_argument("--patience", type=int, default=8)
     ap.add_argument("--batch", type=int, default=64)
@@ -145,7 +172,8 @@ def main() -> None:
                "people_per_room": spec["n"], "posture_accuracy": round(mean("posture_accuracy"), 2),
                "posture3_accuracy": round(mean("posture3_accuracy"), 2), "error_cm": round(mean("error_cm"), 2),
                "crb_cm": crb.get(spec["policy"], "") if spec["capture"] == "default" else "",
-               "seeds": len(res), "arch": arch_label(spec["backbone"], args.stem, args.pool_grid),
+               "seeds": len(res),
+               "arch": arch_label(spec["backbone"], args.stem, args.pool_grid) + ("/per-room" if args.per_room else ""),
                "mean_answer_cm": round(mean("mean_answer_cm"), 2),
                "steps": int(mean("steps")), "seconds": round(mean("seconds"), 1)}
         rows.append(row)

@@ -69,7 +69,8 @@ def error_map(true_xy: np.ndarray, err_cm: np.ndarray, room: dict, path: Path, c
     plt = _plt()
     hr = room["hidden_region"]
     (x0, y0), (x1, y1) = hr["min"], hr["max"]
-    fig, ax = plt.subplots(figsize=(6.5, 5.5), layout="constrained")
+    aspect = (y1 - y0) / max(x1 - x0, 1e-9)  # the figure takes the region's shape: no tall empty colorbar
+    fig, ax = plt.subplots(figsize=(6.5, float(np.clip(5.2 * aspect + 1.0, 2.8, 8.0))), layout="constrained")
     ex, ey = np.linspace(x0, x1, cells + 1), np.linspace(y0, y1, cells + 1)
     s, _, _ = np.histogram2d(true_xy[:, 0], true_xy[:, 1], [ex, ey], weights=err_cm)
     n, _, _ = np.histogram2d(true_xy[:, 0], true_xy[:, 1], [ex, ey])
@@ -86,7 +87,7 @@ def error_map(true_xy: np.ndarray, err_cm: np.ndarray, room: dict, path: Path, c
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    fig.colorbar(im, ax=ax, label="error (cm)")
+    fig.colorbar(im, ax=ax, label="error (cm)", shrink=float(np.clip(aspect, 0.35, 1.0)))
     _save(fig, path)
     plt.close(fig)
 

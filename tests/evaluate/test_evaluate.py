@@ -91,6 +91,12 @@ def test_report_files_and_numbers_agree_with_raw_predictions(evaluated):
     assert snr["oracle_resnet"][0] == pytest.approx(1.0) and all(0 <= v[0] <= 1 + 1e-9 for v in snr.values())
 
 
+def test_report_lays_out_in_a_browser(evaluated, check_in_browser):
+    """Every table, figure and heading of report.html as headless Chromium lays it out."""
+    got = check_in_browser(evaluated[2] / "report.html")
+    assert len(got["images"]) == 3 and any(h.startswith("Table 1") for h in got["headings"])
+
+
 def test_seen_rooms_are_the_held_out_samples_under_the_training_spot(evaluated):
     from nlos_spotlight.evaluate.experiment import seen_rooms
     from nlos_spotlight.evaluate.predictions import illumination_for

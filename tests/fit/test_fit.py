@@ -64,6 +64,12 @@ def test_report_matches_its_contract(fitted):
     assert html.count("data:image/png;base64,") == 4 and "Where to aim the projector" in html
 
 
+def test_report_lays_out_in_a_browser(fitted, check_in_browser):
+    """The room model's report as headless Chromium lays it out: the spot table and four figures."""
+    got = check_in_browser(fitted[0] / "report.html")
+    assert len(got["images"]) == 4 and "Where to aim the projector" in got["headings"]
+
+
 def test_heldout_scores_are_the_networks(fitted):
     """report.json's error is the mean distance between the saved predictions and the truth."""
     out, report = fitted
