@@ -230,9 +230,11 @@ def cmd_predict(args: argparse.Namespace) -> None:
     if args.burst is not None and args.burst < 1:
         raise NlosError(f"--burst: expected a positive frame count, got {args.burst}")
     frames = load_frames(args.inputs, models.image_shape, args.linear, args.fps).bursts(args.burst or 1)
-    background = None
+    background = background_clipped = None
     if args.background:  # an empty-room burst: its frames averaged
-        background = load_frames([args.background], models.image_shape, args.linear).images.mean(axis=0)
+        empty = load_frames([args.background], models.image_shape, args.linear)
+        background = empty.images.mean(axis=0)
+        background_clipped = None if empty.clipped is None else empty.clipped.any(axis=0)
     if args.batch_size < 1:
         raise NlosError(f"--batch-size: expected a positive count, got {args.batch_size}")
     if room is not None:
@@ -241,7 +243,8 @@ def cmd_predict(args: argparse.Namespace) -> None:
             console.print(f"note: the model was trained on bursts of {room.burst_frames} frames; pass --burst "
                           f"{room.burst_frames} to average consecutive frames of a still person")
     res = predict(models, frames, smooth=not args.no_smooth, window=args.smooth_window, order=args.smooth_order,
-                  batch_size=args.batch_size, background=background)
+                  batch_size=args.batch_size, background=background, background_clipped=background_clipped,
+                  backend=args.backend)
     if room is not None:
         res.room_xy = room.room_xy(res.xy)
     aspects = {round(w / h, 2) for h, w in frames.native_shapes}
@@ -368,6 +371,10 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--burst", type=int, help="average consecutive groups of this many frames (a still capture's "
                                              "burst; a room model says its length)")
     q.add_argument("--batch-size", type=int, default=64, help="frames per forward pass")
+    q.add_argument("--backend", default="eager", choices=("eager", "torch", "onnx", "onnx-int8"),
+                   help="network runtime: eager PyTorch, folded channels-last PyTorch, ONNX Runtime, or ONNX "
+                        "Runtime int8 calibrated on the first frames (onnx*: pip install 'nlos-spotlight[fast]'; "
+                        "see benchmarks/inference_latency.py)")
     q.add_argument("--max-rows", type=int, default=40, help="frames shown on screen (all go to --csv/--json)")
     q.set_defaults(func=cmd_predict)
     return p

@@ -7,7 +7,7 @@ relative radiance matters; absolute exposure does not):
 - PNG / JPEG, 8 or 16 bits per channel (gray, gray+alpha, RGB, RGBA; alpha dropped, gray
   replicated): integers divided by 255 or 65535, then the sRGB transfer curve undone (IEC
   61966-2-1) unless ``linear=True`` (for cameras that write linear values). Pillow decodes 8-bit
-  files; it truncates 16-bit RGB PNGs to 8 bits, so those are decoded here (:func:`read_png16`).
+  files; it truncates 16-bit RGB PNGs to 8 bits, so those go through libpng (:func:`read_png16`).
 - A video (``VIDEO_SUFFIXES``) through ``imageio`` when it is installed (optional), decoded as
   8-bit sRGB.
 
@@ -22,7 +22,6 @@ from __future__ import annotations
 import glob
 import re
 import struct
-import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator
@@ -59,82 +58,31 @@ def _to_rgb(a: np.ndarray, where: str) -> np.ndarray:
 
 # ---------------------------------------------------------------- 16-bit PNG
 
-def _paeth(a: int, b: int, c: int) -> int:
-    p = a + b - c
-    pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
-    return a if pa <= pb and pa <= pc else (b if pb <= pc else c)
-
-
-def _unfilter(data: bytes, height: int, stride: int, bpp: int, where: str) -> np.ndarray:
-    """Undo PNG row filters (None, Sub, Up, Average, Paeth) -> (height, stride) uint8.
-
-    None/Sub/Up are vectorized per row; Average and Paeth depend on the reconstructed byte to the
-    left, so they run as a Python loop over the row's bytes (a few seconds per megapixel).
-    """
-    if len(data) < height * (stride + 1):
-        raise NlosError(f"{where}: truncated PNG image data")
-    rows = np.frombuffer(data, np.uint8, height * (stride + 1)).reshape(height, stride + 1)
-    out = np.zeros((height, stride), np.uint8)
-    prev = np.zeros(stride, np.uint8)
-    for y in range(height):
-        kind, line = int(rows[y, 0]), rows[y, 1:]
-        if kind == 0:
-            cur = line.copy()
-        elif kind == 1:  # Sub: running sum per byte position within a pixel, modulo 256
-            cur = np.cumsum(line.reshape(-1, bpp).astype(np.int64), axis=0).reshape(-1).astype(np.uint8)
-        elif kind == 2:
-            cur = line + prev
-        elif kind in (3, 4):
-            raw, up, rec = line.tolist(), prev.tolist(), [0] * stride
-            for i in range(stride):
-                left = rec[i - bpp] if i >= bpp else 0
-                if kind == 3:
-                    rec[i] = (raw[i] + ((left + up[i]) >> 1)) & 0xFF
-                else:
-                    rec[i] = (raw[i] + _paeth(left, up[i], up[i - bpp] if i >= bpp else 0)) & 0xFF
-            cur = np.array(rec, np.uint8)
-        else:
-            raise NlosError(f"{where}: corrupted PNG (unknown row filter {kind})")
-        out[y], prev = cur, cur
-    return out
-
-
 def read_png16(path: Path) -> np.ndarray:
-    """Decode a non-interlaced 16-bit PNG (gray, gray+alpha, RGB, RGBA) -> (H, W, C) uint16."""
+    """Decode a 16-bit PNG (gray, gray+alpha, RGB, RGBA) -> (H, W, C) uint16, through libpng
+    (``imagecodecs``): a camera-sized frame in well under a second."""
+    import imagecodecs
+
     data = path.read_bytes()
     where = str(path)
     if not data.startswith(_PNG_MAGIC):
         raise NlosError(f"{where}: not a PNG file")
-    pos, header, idat = 8, None, []
-    try:
-        while pos < len(data):
-            (length,), kind = struct.unpack(">I", data[pos:pos + 4]), data[pos + 4:pos + 8]
-            body = data[pos + 8:pos + 8 + length]
-            if len(body) != length:
-                raise NlosError(f"{where}: truncated PNG chunk {kind!r}")
-            if kind == b"IHDR":
-                header = struct.unpack(">IIBBBBB", body)
-            elif kind == b"IDAT":
-                idat.append(body)
-            elif kind == b"IEND":
-                break
-            pos += 12 + length
-    except struct.error:
-        raise NlosError(f"{where}: truncated PNG") from None
-    if header is None or not idat:
-        raise NlosError(f"{where}: PNG without header or image data")
-    width, height, depth, color, _, _, interlace = header
-    channels = {0: 1, 2: 3, 4: 2, 6: 4}.get(color)
-    if depth != 16 or channels is None:
+    if len(data) < 33 or data[12:16] != b"IHDR":
+        raise NlosError(f"{where}: PNG without header")
+    width, height, depth, color = struct.unpack(">IIBB", data[16:26])
+    if depth != 16 or color not in (0, 2, 4, 6):
         raise NlosError(f"{where}: expected a 16-bit gray/RGB(A) PNG, got depth {depth}, color type {color}")
-    if interlace:
-        raise NlosError(f"{where}: interlaced 16-bit PNGs are not supported (save it non-interlaced)")
+    if width * height > 200_000_000:  # checked before the decoder allocates it
+        raise NlosError(f"{where}: {width} x {height} pixels is too large a frame")
     try:
-        raw = zlib.decompress(b"".join(idat))
-    except zlib.error:
-        raise NlosError(f"{where}: corrupted PNG (compressed data invalid)") from None
-    rows = _unfilter(raw, height, width * channels * 2, channels * 2, where)
-    return rows.view(">u2").reshape(height, width, channels).astype(np.uint16)
+        a = imagecodecs.png_decode(data)
+    except Exception as exc:  # libpng's errors: truncated or corrupted data, bad CRCs
+        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise NlosError(f"{where}: corrupted PNG ({msg})") from None
+    a = np.asarray(a)
+    if a.dtype != np.uint16 or a.shape[:2] != (height, width):
+        raise NlosError(f"{where}: corrupted PNG (decoded {a.dtype} {a.shape}, header says {height} x {width})")
+    return a.reshape(height, width, -1)
 
 
 def _png_depth(path: Path) -> int | None:
@@ -246,7 +194,11 @@ def area_resize(images: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     a = a[None] if single else a
     h, w = shape
     if a.shape[1:3] != (h, w):
-        a = np.einsum("ih,nhwc,jw->nijc", _area_matrix(a.shape[1], h), a, _area_matrix(a.shape[2], w))
+        # two matrix products (rows, then columns): a three-operand einsum without a contraction
+        # order loops over every (i, j, h, w) and took a minute for a camera-sized frame
+        n, c = a.shape[0], a.shape[-1]
+        a = np.matmul(_area_matrix(a.shape[1], h), a.reshape(n, a.shape[1], -1)).reshape(n, h, -1, c)
+        a = np.einsum("jw,nhwc->nhjc", _area_matrix(a.shape[2], w), a, optimize=True)
     return a[0] if single else a
 
 
@@ -264,6 +216,9 @@ class Frames:
     """Frames per second (--fps, else the video's rate), None if unknown."""
     native_shapes: list[tuple[int, int]] = field(default_factory=list)
     """Distinct (H, W) sizes of the inputs before resampling."""
+    clipped: np.ndarray | None = None
+    """(N, H, W) bool: some input pixel under the frame's pixel sat at the file's largest code (the
+    camera clipped there; the networks read this flag, DESIGN section 6). None for .npy inputs."""
 
     def __len__(self) -> int:
         return len(self.images)
@@ -279,8 +234,9 @@ class Frames:
         n = len(self) // k
         images = self.images.reshape(n, k, *self.images.shape[1:]).mean(axis=1, dtype=np.float64)
         sources = [f"{self.sources[i * k]}..{self.sources[i * k + k - 1]}" for i in range(n)]
+        clipped = None if self.clipped is None else self.clipped.reshape(n, k, *self.clipped.shape[1:]).any(axis=1)
         return Frames(images.astype(np.float32), sources, None if self.fps is None else self.fps / k,
-                      list(self.native_shapes))
+                      list(self.native_shapes), clipped)
 
 
 def _natural_key(p: Path) -> list:
@@ -348,7 +304,7 @@ def load_frames(items: list[str], shape: tuple[int, int], linear: bool = False,
     videos = [f for f in files if f.suffix.lower() in VIDEO_SUFFIXES]
     if videos and len(files) > 1:
         raise NlosError(f"{videos[0]}: a video must be the only input")
-    out, sources, native = [], [], set()
+    out, sources, native, clips = [], [], set(), []
     if videos:
         frames, video_fps = read_video(videos[0], linear)
         fps = fps or video_fps
@@ -356,6 +312,7 @@ def load_frames(items: list[str], shape: tuple[int, int], linear: bool = False,
             _check_finite(frame, f"{videos[0]} frame {k}")
             native.add(frame.shape[:2])
             out.append(area_resize(frame, shape))
+            clips.append(clip_flag(frame, shape))
             sources.append(f"{videos[0].name}#{k}")
         if not out:
             raise NlosError(f"{videos[0]}: the video has no frames")
@@ -367,13 +324,24 @@ def load_frames(items: list[str], shape: tuple[int, int], linear: bool = False,
                 _check_finite(img, f"{f} frame {k}" if len(stack) > 1 else str(f))
             native.add(stack.shape[1:3])
             out += list(area_resize(stack, shape))
+            clips += [None] * len(stack)
             sources += [f"{f.name}[{k}]" for k in range(len(stack))] if len(stack) > 1 else [f.name]
         elif suffix in IMAGE_SUFFIXES:
             img = read_image(f, linear)
             native.add(img.shape[:2])
             out.append(area_resize(img, shape))
+            clips.append(clip_flag(img, shape))
             sources.append(f.name)
         else:
             raise NlosError(f"{f}: unsupported input type '{f.suffix}' "
                             f"(use .npy, .png, .jpg or a video: {', '.join(VIDEO_SUFFIXES)})")
-    return Frames(np.stack(out).astype(np.float32), sources, fps, sorted(native))
+    clipped = None if all(c is None for c in clips) else \
+        np.stack([np.zeros(shape, bool) if c is None else c for c in clips])
+    return Frames(np.stack(out).astype(np.float32), sources, fps, sorted(native), clipped)
+
+
+def clip_flag(image: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """(H0, W0, 3) values in [0, 1] (linear or not: 1 is the file's largest code) -> (H, W) bool, True
+    where any pixel under the output pixel's footprint has a channel at 1 (what the camera clipped)."""
+    sat = (np.asarray(image) >= 1.0).any(axis=-1).astype(np.float64)[..., None]
+    return area_resize(sat, shape)[..., 0] > 1e-9

@@ -85,46 +85,57 @@ class Predictions:
 
 
 def run_network(models: TrainedModels, images: np.ndarray, batch_size: int = 64,
-                background: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                background: np.ndarray | None = None, clipped: np.ndarray | None = None,
+                backend: str = "eager") -> tuple[np.ndarray, np.ndarray]:
     """The NLOS network on frames already at ``models.image_shape``.
 
     Args:
         images: (N, H, W, 3) linear radiance.
         batch_size: frames per forward pass.
         background: (H, W, 3) empty-room frame, for networks trained with background subtraction.
+        clipped: (N, H, W) bool, where the camera clipped (photograph or background); None: nowhere.
+        backend: ``models.inference.BACKENDS`` (``onnx-int8`` calibrates on the first 16 frames).
 
     Returns:
         positions (N, 2) m and posture probabilities (N, 6), float64.
     """
+    from ..models.inference import compile_network
+
     if images.ndim != 4 or tuple(images.shape[1:]) != (*models.image_shape, 3):
         raise NlosError(f"frames have shape {images.shape[1:]}, the network expects {(*models.image_shape, 3)}")
-    device = next(models.net.parameters()).device
     uses_bg = bool(models.config.net.background_subtract)
     if uses_bg and background is None:
         raise NlosError("this network was trained with background subtraction: pass --background EMPTY_ROOM_IMAGE")
     if background is not None and not uses_bg:
         raise NlosError("--background: this network does not use an empty-room image")
+    if clipped is None:
+        clipped = np.zeros(images.shape[:3], bool)
+    bg = lambda n: None if background is None else np.broadcast_to(background, (n, *background.shape))
+    calibration = [(images[i:i + 1], bg(1), clipped[i:i + 1]) for i in range(min(16, len(images)))]
+    run = compile_network(models.net, tuple(models.image_shape), backend, calibration=calibration)
     xy, probs = [], []
-    models.net.eval()
-    with torch.no_grad():
-        for s in range(0, len(images), batch_size):
-            x = torch.as_tensor(np.ascontiguousarray(images[s:s + batch_size]), dtype=torch.float32, device=device)
-            kw = {}
-            if uses_bg:
-                kw["background"] = torch.as_tensor(background, dtype=torch.float32, device=device).expand_as(x)
-            pos, logits = models.net(x, **kw)
-            xy.append(pos.double().cpu().numpy())
-            probs.append(torch.softmax(logits.double(), dim=1).cpu().numpy())
+    for s in range(0, len(images), batch_size):
+        x = images[s:s + batch_size]
+        pos, logits = run(x, bg(len(x)), clipped[s:s + batch_size])
+        xy.append(pos.astype(np.float64))
+        probs.append(torch.softmax(torch.as_tensor(logits, dtype=torch.float64), dim=1).numpy())
     return np.concatenate(xy), np.concatenate(probs)
 
 
 def predict(models: TrainedModels, frames: Frames, smooth: bool = True, window: int | None = None,
-            order: int = DEFAULT_ORDER, batch_size: int = 64, background: np.ndarray | None = None) -> Predictions:
+            order: int = DEFAULT_ORDER, batch_size: int = 64, background: np.ndarray | None = None,
+            background_clipped: np.ndarray | None = None, backend: str = "eager") -> Predictions:
     """Positions and postures of every frame; a smoothed trajectory for >= 5 frames when ``smooth``.
 
-    ``window`` None picks :func:`default_window` of the frame count.
+    ``window`` None picks :func:`default_window` of the frame count. The network's clip flag is
+    where the frame or the background (``background_clipped``, (H, W)) clipped.
     """
-    xy, probs = run_network(models, frames.images, batch_size, background)
+    clipped = frames.clipped
+    if background_clipped is not None:
+        clipped = background_clipped[None] if clipped is None else clipped | background_clipped[None]
+    if clipped is not None:
+        clipped = np.broadcast_to(clipped, frames.images.shape[:3])
+    xy, probs = run_network(models, frames.images, batch_size, background, clipped, backend)
     times = None if frames.fps is None else np.arange(len(frames)) / frames.fps
     out = Predictions(list(frames.sources), xy, probs, times, checkpoint=str(models.path),
                       image_shape=tuple(models.image_shape))

@@ -64,9 +64,14 @@ class IEN(nn.Module):
                 m.reset_parameters()
 
     def vertex_features(self, x: torch.Tensor, edge_index: torch.Tensor) -> torch.Tensor:
+        """(V, in) -> (V, hidden). The FeaStConv layers run per vertex (``models.feast``: PyG's
+        layer and parameters, its per-edge matrix products factored out)."""
+        from .feast import feast_conv, with_self_loops
+
         h = self.encoder(x)
+        loops = with_self_loops(edge_index, x.shape[0])
         for conv in self.convs:
-            h = torch.relu(conv(h, edge_index))
+            h = torch.relu(feast_conv(conv, h, loops))
         return h
 
     def forward(self, x: torch.Tensor, edge_index: torch.Tensor, faces: torch.Tensor) -> torch.Tensor:
