@@ -61,7 +61,8 @@ def plan(args) -> list[dict]:
     sizes = [int(v) for v in args.sizes.split(",")]
     runs = [dict(capture=c, policy="oracle", n=n, backbone=args.backbone) for n in sizes
             for c in ("noise-free", "default")]
-    runs += [dict(capture="default", policy=p, n=sizes[-1], backbone=args.backbone)
+    policy_capture = f"burst-{args.burst}" if args.policies_burst and args.burst > 1 else "default"
+    runs += [dict(capture=policy_capture, policy=p, n=sizes[-1], backbone=args.backbone)
              for p in args.policies.split(",") if p]
     runs += [dict(capture=f"burst-{args.burst}", policy="oracle", n=sizes[-1], backbone=args.backbone)] \
         if args.burst > 1 else []
@@ -137,6 +138,8 @@ def main() -> None:
                     help="people per room of the ResNet-18 and baseline runs (default: the largest size)")
     ap.add_argument("--burst", type=int, default=0,
                     help="also the oracle spot at the largest size with a still capture of this many frames")
+    ap.add_argument("--policies-burst", action="store_true",
+                    help="the other spots with the --burst capture instead of the default one")
     ap.add_argument("--other-networks-only", action="store_true",
                     help="only the ResNet-18 and baseline runs (a second process beside the curve's)")
     ap.add_argument("--per-room", action="store_true",

@@ -9,7 +9,7 @@ by applying the linear maps W and u to each edge's features: E x C x M x C' mult
 Both maps are linear, so ``W x_j`` and ``u^T x_j - u^T x_i`` can be computed once per vertex and
 gathered along the edges (V x C x M x C', V ~ E / 6 on a triangle mesh). The result is the same layer
 up to float rounding, with the parameters of the PyG module it is given (tested against PyG,
-values and gradients). The IEN uses it for training and inference.
+values and gradients). The IEN uses it when choosing a spot (no autograd).
 
 Shapes:
     x (V, C), edge_index (2, E) with self-loops (``with_self_loops``) -> (V, C').

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..render.camera import pixel_rays
 from ..render.rays import RayEngine
-from ..scene.format import Camera, HiddenRegion, Scene
+from ..scene.format import Camera, HiddenRegion, Projector, Scene
 
 CHECK_HEIGHTS = (0.02, 0.3, 0.6, 0.9, 1.2, 1.5, 1.75, 1.9)
 """Heights above the floor (m) of the hidden-check points on each vertical segment."""
@@ -347,7 +347,7 @@ def _overlap(a, b, pad: float = 0.0) -> bool:
     return a[0] < b[2] + pad and b[0] < a[2] + pad and a[1] < b[3] + pad and b[1] < a[3] + pad
 
 
-def tripod(rng: np.random.Generator, lay, cfg) -> tuple[Camera, "Projector"] | None:
+def tripod(rng: np.random.Generator, lay, cfg) -> tuple[Camera, Projector] | None:
     """Camera on a tripod in the layout's camera zone looking at the relay wall near the hidden
     region; the projector beside it (0.15-0.6 m to one side, a little lower or higher)."""
     from ..scene.format import Projector

@@ -17,9 +17,6 @@ import pytest
 import torch
 from PIL import Image
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "train"))
-from toy import toy_scene  # noqa: E402
-from app_fixtures import _one_thread  # noqa: E402,F401  (autouse: one torch thread)
 
 from nlos_spotlight.apps.images import (Frames, area_resize, expand_inputs, load_frames,  # noqa: E402
                                         read_image, read_png16, srgb_to_linear)
@@ -33,10 +30,12 @@ from nlos_spotlight.train.config import TrainConfig  # noqa: E402
 from nlos_spotlight.train.loop import Trainer  # noqa: E402
 from nlos_spotlight.world.body import POSTURES  # noqa: E402
 
+pytestmark = pytest.mark.usefixtures("one_thread")  # tiny networks: one torch thread (conftest.py)
+
 RES = 8  # the toy scene's image size: checkpoints expect (8, 8, 3)
 
 
-def _checkpoint(path: Path, **cfg) -> Path:
+def _checkpoint(toy_scene, path: Path, **cfg) -> Path:
     tr = Trainer(TrainConfig(**cfg), [toy_scene(n=8, res=RES)], path.parent)
     with torch.no_grad():  # a non-trivial position standardization, as after real training
         tr.net.position_mean.copy_(torch.tensor([2.0, -0.5]))
@@ -46,8 +45,8 @@ def _checkpoint(path: Path, **cfg) -> Path:
 
 
 @pytest.fixture(scope="module")
-def ckpt(tmp_path_factory) -> Path:
-    return _checkpoint(tmp_path_factory.mktemp("run") / "final.pt")
+def ckpt(toy_scene, tmp_path_factory) -> Path:
+    return _checkpoint(toy_scene, tmp_path_factory.mktemp("run") / "final.pt")
 
 
 @pytest.fixture(scope="module")
@@ -255,8 +254,8 @@ def test_video_without_imageio_is_a_clear_error(ckpt, tmp_path, monkeypatch, cap
 
 # ---------------------------------------------------------------- background subtraction
 
-def test_background_subtraction_network_needs_the_empty_room(tmp_path, capsys):
-    ckpt = _checkpoint(tmp_path / "bg.pt", net=NLOSNetConfig(background_subtract=True))
+def test_background_subtraction_network_needs_the_empty_room(toy_scene, tmp_path, capsys):
+    ckpt = _checkpoint(toy_scene, tmp_path / "bg.pt", net=NLOSNetConfig(background_subtract=True))
     m = load_trained(ckpt)
     rng = np.random.default_rng(7)
     img, bg = rng.uniform(0.5, 1.0, (RES, RES, 3)), rng.uniform(0.5, 1.0, (RES, RES, 3))

@@ -5,16 +5,12 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "train"))
-from toy import toy_scene  # noqa: E402
-from app_fixtures import _one_thread  # noqa: E402,F401  (autouse: one torch thread)
 
 from nlos_spotlight.apps.spotlight import (aim_projector, default_camera, load_setup, spotlight,  # noqa: E402
                                            visible_mesh)
@@ -32,8 +28,10 @@ EXAMPLE = Path(__file__).resolve().parents[2] / "nlos_spotlight" / "assets" / "e
 SCANS_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "real-scans"
 
 
+pytestmark = pytest.mark.usefixtures("one_thread")  # tiny networks: one torch thread (conftest.py)
+
 @pytest.fixture(scope="module")
-def ckpt(tmp_path_factory) -> Path:
+def ckpt(toy_scene, tmp_path_factory) -> Path:
     """An IEN with spread-out logits (random weights, scaled up) in a checkpoint with normals."""
     tr = Trainer(TrainConfig(), [toy_scene(n=8, res=8)], Path("unused"))
     # default init gives nearly equal logits (spread ~0.01); a wider init and a scaled last layer

@@ -9,7 +9,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,20 +17,12 @@ from nlos_spotlight.data.config import DatasetConfig, load_config
 from nlos_spotlight.data.generate import finalize, generate, plan, verify
 from nlos_spotlight.errors import NlosError
 
-MICRO = dict(name="micro", seed=3, train_scenes=2, val_scenes=0, test_scenes=1, samples_per_scene=3,
-             trajectories_per_test_scene=1, trajectory_frames=3, resolution=12, los_vertices=40,
-             transport_rank=8, body_faces=600, pixel_samples=1, transport_pixel_samples=1, spot_samples=4,
-             person_samples=48, person_quadrature="mc")
-
-
-def micro() -> DatasetConfig:
-    return DatasetConfig(**MICRO)
 
 
 @pytest.fixture(scope="module")
-def reference(tmp_path_factory):
+def reference(micro_config, tmp_path_factory):
     out = tmp_path_factory.mktemp("ref")
-    generate(micro(), out, progress=False)
+    generate(DatasetConfig(**micro_config), out, progress=False)
     return out, json.loads((out / "manifest.json").read_text())
 
 
@@ -50,29 +41,29 @@ def test_complete_and_verifiable(reference):
     assert st["direct"].shape == (t, 12, 12, 3) and st["los_faces"].shape == (t, 3)
 
 
-def test_same_config_same_content(reference, tmp_path):
+def test_same_config_same_content(micro_config, reference, tmp_path):
     out, manifest = reference
-    generate(micro(), tmp_path, progress=False)
+    generate(DatasetConfig(**micro_config), tmp_path, progress=False)
     assert json.loads((tmp_path / "manifest.json").read_text())["content_sha256"] == manifest["content_sha256"]
 
 
-def test_shards_merge_to_the_same_content(reference, tmp_path):
+def test_shards_merge_to_the_same_content(micro_config, reference, tmp_path):
     _, manifest = reference
     parts = [tmp_path / "a", tmp_path / "b"]
     for i, d in enumerate(parts):
-        generate(micro(), d, shard=(i, 2), progress=False)
+        generate(DatasetConfig(**micro_config), d, shard=(i, 2), progress=False)
         assert not (d / "manifest.json").exists()  # each part alone is incomplete
     merged = tmp_path / "merged"
     for d in parts:
         shutil.copytree(d, merged, dirs_exist_ok=True)
-    finalize(micro(), merged)
+    finalize(DatasetConfig(**micro_config), merged)
     assert json.loads((merged / "manifest.json").read_text())["content_sha256"] == manifest["content_sha256"]
 
 
-def test_resume_after_kill(reference, tmp_path):
+def test_resume_after_kill(micro_config, reference, tmp_path):
     _, manifest = reference
     cfg = tmp_path / "micro.yaml"
-    cfg.write_text("\n".join(f"{k}: {v}" for k, v in MICRO.items() if k != "name") + "\n")
+    cfg.write_text("\n".join(f"{k}: {v}" for k, v in micro_config.items() if k != "name") + "\n")
     out = tmp_path / "data"
     cmd = [sys.executable, "-m", "nlos_spotlight.cli", "generate", str(cfg), "--out", str(out), "--quiet"]
     env = {**os.environ, "NLOS_QUIET": "1"}
@@ -92,9 +83,9 @@ def test_resume_after_kill(reference, tmp_path):
     assert m["content_sha256"] == manifest["content_sha256"]
 
 
-def test_other_config_refused(reference):
+def test_other_config_refused(micro_config, reference):
     out, _ = reference
-    other = micro()
+    other = DatasetConfig(**micro_config)
     other.samples_per_scene = 4
     with pytest.raises(NlosError, match="another config.*samples_per_scene"):
         generate(other, out, progress=False)
@@ -110,7 +101,7 @@ def test_corruption_detected(reference, tmp_path):
         verify(copy)
 
 
-def test_split_by_scene_balanced_postures_positions(reference):
+def test_split_by_scene_balanced_postures_positions(micro_config, reference):
     out, manifest = reference
     from nlos_spotlight.scene import load_scene
 
@@ -125,7 +116,7 @@ def test_split_by_scene_balanced_postures_positions(reference):
                 if int(z["trajectory"]) < 0:
                     post.append(int(z["posture"]))
             assert len(set(post)) == len(post)  # 3 samples, 3 different postures (balanced cycle)
-    assert {p.split for p in plan(micro())} == {"train", "test"}
+    assert {p.split for p in plan(DatasetConfig(**micro_config))} == {"train", "test"}
 
 
 def test_presets_and_yaml_errors(tmp_path):
@@ -141,7 +132,7 @@ def test_presets_and_yaml_errors(tmp_path):
         load_config(str(tmp_path / "missing.yaml"))
 
 
-def test_verify_names_each_bad_file_and_generate_repairs_it(reference, tmp_path, capsys):
+def test_verify_names_each_bad_file_and_generate_repairs_it(micro_config, reference, tmp_path, capsys):
     """``nlos verify``: one line per bad file, exit 2; rerunning generate renders exactly those
     files again (the content hash comes back) instead of calling the dataset complete."""
     from nlos_spotlight.cli import main
@@ -159,7 +150,7 @@ def test_verify_names_each_bad_file_and_generate_repairs_it(reference, tmp_path,
     assert len(err) == 3 and err[-1].startswith("error:") and "2 bad files" in err[-1]
     assert {line.split(": ")[1] for line in err[:2]} == {str(a), str(b)}
     keep = {p: p.stat().st_mtime_ns for p in copy.rglob("*.npz") if p not in (a, b)}
-    generate(micro(), copy, progress=False)
+    generate(DatasetConfig(**micro_config), copy, progress=False)
     assert main(["verify", str(copy)]) == 0
     assert json.loads((copy / "manifest.json").read_text())["content_sha256"] == manifest["content_sha256"]
     assert all(p.stat().st_mtime_ns == t for p, t in keep.items())  # nothing else redone

@@ -15,7 +15,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -159,10 +158,10 @@ def test_resume_after_kill_during_images(datasets, tmp_path):
     manifest = json.loads((root / "mixed" / "manifest.json").read_text())
     out = tmp_path / "data"
     # (a YAML config cannot have zero test rooms: run the same config through the API)
-    code = ("import sys; sys.path.insert(0, sys.argv[2]); from test_image_samples import config, M; "
+    code = ("import sys, json; from nlos_spotlight.data.config import DatasetConfig; "
             "from nlos_spotlight.data.generate import generate; "
-            "generate(config(transport_samples_per_scene=M), sys.argv[1], progress=False)")
-    cmd = [sys.executable, "-c", code, str(out), str(Path(__file__).parent)]
+            "generate(DatasetConfig(**json.loads(sys.argv[2])), sys.argv[1], progress=False)")
+    cmd = [sys.executable, "-c", code, str(out), json.dumps(config(transport_samples_per_scene=M).to_dict())]
     env = {**os.environ, "NLOS_QUIET": "1"}
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 300

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -170,15 +169,10 @@ def test_config_checks():
     assert PRESETS["default"].samples == 24 + 3000 + 200
 
 
-def test_ien_policy_uses_the_checkpoints_choice(room_dir, tmp_path):
+def test_ien_policy_uses_the_checkpoints_choice(toy_scene, room_dir, tmp_path):
     """--policy ien: the spot is the trained IEN's most probable reachable candidate of the room,
     stored for the image samples, and the one the network is trained and scored under."""
-    import sys
-
     import torch
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "train"))
-    from toy import toy_scene
 
     from nlos_spotlight.data.scene_builder import los_mesh
     from nlos_spotlight.fit.spot import ien_face
@@ -214,10 +208,11 @@ def test_killed_fit_resumes_to_the_same_model(fitted, room_dir, tmp_path):
 
     out, report = fitted
     dest = tmp_path / "killed"
-    code = ("import sys, dataclasses, json; sys.path.insert(0, sys.argv[2]); from test_fit import TINY; "
+    code = ("import sys, json; from nlos_spotlight.fit.config import FitConfig; "
             "from nlos_spotlight.fit.run import fit_room; "
-            "fit_room(sys.argv[3], sys.argv[1], dataclasses.replace(TINY, workers=2), {}, resume=True, progress=False)")
-    cmd = [sys.executable, "-c", code, str(dest), str(Path(__file__).parent), str(room_dir)]
+            "fit_room(sys.argv[3], sys.argv[1], FitConfig(**json.loads(sys.argv[2])), {}, resume=True, progress=False)")
+    cfg = json.dumps(dataclasses.replace(TINY, workers=2).to_dict())
+    cmd = [sys.executable, "-c", code, str(dest), cfg, str(room_dir)]
     env = {**os.environ, "NLOS_QUIET": "1"}
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.time() + 300

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -28,21 +26,19 @@ from nlos_spotlight.scene.format import Camera, HiddenRegion, Material, Projecto
 from nlos_spotlight.train.imaging import form_images
 from nlos_spotlight.train.scenes import load_scene_tensors
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "data"))
-from test_generate import MICRO  # noqa: E402  (the micro dataset of the generation tests)
 
 
 @pytest.fixture(scope="module")
-def micro_scene(tmp_path_factory):
+def micro_scene(micro_config, tmp_path_factory):
     """The test scene of the micro dataset: its directory and its tensors."""
     out = tmp_path_factory.mktemp("micro")
-    generate(DatasetConfig(**MICRO), out, progress=False)
+    generate(DatasetConfig(**micro_config), out, progress=False)
     scene_dir = next((out / "scenes").glob("test-*"))
     return scene_dir, load_scene_tensors(scene_dir, [])
 
 
 # ----------------------------------------------------------------------------------------- SNR
-def test_scene_snr_equals_the_per_candidate_formula(micro_scene):
+def test_scene_snr_equals_the_per_candidate_formula(micro_config, micro_scene):
     """The batched SNR equals SNR_t = sqrt(sum_p s_p^2 / var_p) evaluated one candidate at a time."""
     scene_dir, _ = micro_scene
     st = np.load(scene_dir / "static.npz")
@@ -59,7 +55,7 @@ def test_scene_snr_equals_the_per_candidate_formula(micro_scene):
         na = torch.as_tensor(z["nlos_ambient"]).double()
         rows.append([snr(f[t], direct[t] + ambient + f[t] + na, auto_exposure(direct[t] + ambient, cfg), cfg)
                      if landed[t] else 0.0 for t in range(len(landed))])
-    assert len(rows) == MICRO["samples_per_scene"]  # the walk's frames are left out
+    assert len(rows) == micro_config["samples_per_scene"]  # the walk's frames are left out
     got = scene_snr(scene_dir)
     np.testing.assert_allclose(got.candidates, np.mean(rows, axis=0), rtol=1e-10)
     assert got.samples == len(rows) and got.flash is not None and got.flash > 0 and got.ambient > 0

@@ -2,20 +2,17 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pytest
 import torch
 
-sys.path.insert(0, str(Path(__file__).parent))
-from toy import toy_scene  # noqa: E402
 
 from nlos_spotlight.train.config import TrainConfig  # noqa: E402
 from nlos_spotlight.train.loop import Trainer, _validation_pass, split_validation  # noqa: E402
 
 
-def test_two_stage_freezes_the_ien_on_its_snr_spot_then_trains_the_network():
+def test_two_stage_freezes_the_ien_on_its_snr_spot_then_trains_the_network(toy_scene):
     cfg = TrainConfig(spot_steps=30, steps=5, batch_size=4, sensor_noise=False)
     tr = Trainer(cfg, [toy_scene()], Path("unused"))
     s = tr.scenes[0]
@@ -36,7 +33,7 @@ def test_two_stage_freezes_the_ien_on_its_snr_spot_then_trains_the_network():
     assert not all(torch.equal(a, b) for a, b in zip(net0, tr.net.parameters()))
 
 
-def test_two_stage_without_snr_targets_is_a_one_line_error():
+def test_two_stage_without_snr_targets_is_a_one_line_error(toy_scene):
     from nlos_spotlight.errors import NlosError
 
     tr = Trainer(TrainConfig(spot_steps=3, batch_size=4, sensor_noise=False), [toy_scene()], Path("unused"))
@@ -44,7 +41,7 @@ def test_two_stage_without_snr_targets_is_a_one_line_error():
         tr.train_step()
 
 
-def test_validation_split_is_disjoint_and_scores_like_the_loss():
+def test_validation_split_is_disjoint_and_scores_like_the_loss(toy_scene):
     room = toy_scene(n=40)
     fit, val = split_validation(room, 4)
     assert fit.num_samples == 30 and val.num_samples == 10
@@ -59,7 +56,7 @@ def test_validation_split_is_disjoint_and_scores_like_the_loss():
     assert row["acc"] == pytest.approx(float(ref["acc"]), abs=1e-6)
 
 
-def test_best_weights_are_kept_and_patience_stops(tmp_path, monkeypatch):
+def test_best_weights_are_kept_and_patience_stops(toy_scene, tmp_path, monkeypatch):
     room = toy_scene(n=16)
     fit, val = split_validation(room, 4)
     tr = Trainer(TrainConfig(batch_size=4, sensor_noise=False, patience=2), [fit], tmp_path, val_scenes=[val])
@@ -74,7 +71,7 @@ def test_best_weights_are_kept_and_patience_stops(tmp_path, monkeypatch):
     assert (tmp_path / "validation.csv").read_text().count("\n") == 5
 
 
-def test_cosine_schedule_decays_to_one_percent():
+def test_cosine_schedule_decays_to_one_percent(toy_scene):
     cfg = TrainConfig(steps=10, batch_size=4, sensor_noise=False, lr_schedule="cosine", lr=1e-3)
     tr = Trainer(cfg, [toy_scene()], Path("unused"))
     tr.set_learning_rate()
@@ -84,7 +81,7 @@ def test_cosine_schedule_decays_to_one_percent():
     assert tr.opt.param_groups[-1]["lr"] == pytest.approx(1e-5)
 
 
-def test_walks_in_training_rooms_are_held_out_of_training():
+def test_walks_in_training_rooms_are_held_out_of_training(toy_scene):
     """A training room's walking-trajectory frames are for tracking in seen rooms: never trained on."""
     from nlos_spotlight.train.scenes import holdout_mask, room_samples
 
@@ -98,7 +95,7 @@ def test_walks_in_training_rooms_are_held_out_of_training():
         assert trained.num_samples == 15 - (2 if every == 6 else 0)  # k = 5, 11 held out with every = 6
 
 
-def test_seen_split_keeps_its_test_people_and_trains_on_everyone_else():
+def test_seen_split_keeps_its_test_people_and_trains_on_everyone_else(toy_scene):
     """evaluate.seen.split_room: the first max_eval of residues 9 (test) and 8 (validation); every
     other static person is in the pool, so a growing room keeps its test people and loses no one."""
     from nlos_spotlight.evaluate.seen import split_room

@@ -10,8 +10,6 @@ from pathlib import Path
 import pytest
 import torch
 
-sys.path.insert(0, str(Path(__file__).parent))
-from toy import toy_scene  # noqa: E402
 
 from nlos_spotlight.train.config import TrainConfig  # noqa: E402
 from nlos_spotlight.train.loop import Trainer  # noqa: E402
@@ -19,14 +17,14 @@ from nlos_spotlight.train.loop import Trainer  # noqa: E402
 CFG = TrainConfig(steps=40, batch_size=16, sensor_noise=False, tau=1.0, ckpt_every=10, log_every=5)
 
 
-def _best_is_initial_worst(cfg: TrainConfig) -> int:
+def _best_is_initial_worst(toy_scene, cfg: TrainConfig) -> int:
     probe = Trainer(cfg, [toy_scene()], Path("unused"))
     s = probe.scenes[0]
     with torch.no_grad():
         return int(probe.ien(s.x, s.edge_index, s.faces).argmin())
 
 
-def test_nlos_loss_reaches_the_ien():
+def test_nlos_loss_reaches_the_ien(toy_scene):
     tr = Trainer(CFG, [toy_scene()], Path("unused"))
     s = tr.scenes[0]
     out = tr.loss_on(s, torch.arange(8))
@@ -35,8 +33,8 @@ def test_nlos_loss_reaches_the_ien():
     assert all(g is not None for g in grads) and sum(float(g.abs().sum()) for g in grads) > 0
 
 
-def test_training_moves_the_spot_to_the_informative_face():
-    best = _best_is_initial_worst(CFG)
+def test_training_moves_the_spot_to_the_informative_face(toy_scene):
+    best = _best_is_initial_worst(toy_scene, CFG)
     tr = Trainer(CFG, [toy_scene(best=best)], Path("unused"))
     s = tr.scenes[0]
     with torch.no_grad():
@@ -48,7 +46,7 @@ def test_training_moves_the_spot_to_the_informative_face():
     assert int(p.argmax()) == best and float(p[best]) > 0.5
 
 
-def test_sensor_noise_path_is_differentiable():
+def test_sensor_noise_path_is_differentiable(toy_scene):
     cfg = TrainConfig(batch_size=4, sensor_noise=True)
     tr = Trainer(cfg, [toy_scene()], Path("unused"))
     out = tr.loss_on(tr.scenes[0], torch.arange(4))
@@ -56,7 +54,7 @@ def test_sensor_noise_path_is_differentiable():
     assert torch.isfinite(out["loss"]) and all(p.grad is not None for p in tr.ien.parameters())
 
 
-def test_resume_equals_uninterrupted(tmp_path):
+def test_resume_equals_uninterrupted(toy_scene, tmp_path):
     def run(steps_then_resume: int | None) -> dict:
         tr = Trainer(CFG, [toy_scene()], tmp_path)
         stop = steps_then_resume or 12
@@ -74,19 +72,19 @@ def test_resume_equals_uninterrupted(tmp_path):
     assert all(torch.equal(a[k], b[k]) for k in a)
 
 
-def test_two_process_torchrun_gloo(tmp_path):
+def test_two_process_torchrun_gloo(toy_scene, tmp_path):
+    rooms = tmp_path / "rooms.pt"
+    torch.save([toy_scene(n=16, best=2), toy_scene(n=16, seed=1)], rooms)
     script = tmp_path / "ddp.py"
     script.write_text(f"""
 import sys, torch, torch.distributed as dist
-sys.path.insert(0, {str(Path(__file__).parent)!r})
 from pathlib import Path
-from toy import toy_scene
 from nlos_spotlight.train.config import TrainConfig
 from nlos_spotlight.train.loop import Trainer
 dist.init_process_group("gloo")
 # two rooms per step: one IEN pass over their union graph, one network pass over the mixed batch
 cfg = TrainConfig(batch_size=4, scenes_per_step=2, sensor_noise=False, device="cpu")
-tr = Trainer(cfg, [toy_scene(n=16, best=2), toy_scene(n=16, seed=1)], Path("."))
+tr = Trainer(cfg, torch.load({str(rooms)!r}, weights_only=False), Path("."))
 for _ in range(3):
     tr.train_step()
 w = torch.cat([p.detach().flatten() for p in [*tr.net.parameters(), *tr.ien.parameters()]])
@@ -104,11 +102,11 @@ dist.destroy_process_group()
     assert "DDP-OK 2" in res.stdout
 
 
-def test_snr_loss_alone_teaches_the_best_snr_spot():
+def test_snr_loss_alone_teaches_the_best_snr_spot(toy_scene):
     """With only the auxiliary loss, the IEN's choice moves to the candidate of highest stored SNR."""
     cfg = TrainConfig(steps=30, batch_size=4, sensor_noise=False, position_weight=0.0, posture_weight=0.0,
                       snr_weight=1.0)
-    best = _best_is_initial_worst(cfg)
+    best = _best_is_initial_worst(toy_scene, cfg)
     tr = Trainer(cfg, [toy_scene()], Path("unused"))
     snr = torch.full((len(tr.scenes[0].faces),), 0.2)
     snr[best] = 1.0
@@ -125,7 +123,7 @@ def test_snr_loss_alone_teaches_the_best_snr_spot():
         assert int(tr.ien(s.x, s.edge_index, s.faces).argmax()) == best
 
 
-def test_union_graph_gives_each_scene_its_own_logits():
+def test_union_graph_gives_each_scene_its_own_logits(toy_scene):
     """One IEN pass over several meshes equals one pass per mesh (reference: separate forwards)."""
     a, b = toy_scene(seed=0), toy_scene(seed=1)
     b.x = b.x + 0.3 * torch.randn(b.x.shape, generator=torch.Generator().manual_seed(0))
@@ -137,7 +135,7 @@ def test_union_graph_gives_each_scene_its_own_logits():
     assert not torch.allclose(together[0], together[1])
 
 
-def test_mixed_batch_loss_is_the_mean_of_per_scene_losses():
+def test_mixed_batch_loss_is_the_mean_of_per_scene_losses(toy_scene):
     """With batch norm frozen (eval) and no noise, a batch of two scenes scores as their average."""
     a, b = toy_scene(seed=0, best=2), toy_scene(seed=1, best=6)
     tr = Trainer(TrainConfig(batch_size=8, sensor_noise=False, scenes_per_step=2), [a, b], Path("unused"))
