@@ -159,3 +159,41 @@ def validate(cfg: DatasetConfig, where: str) -> None:
         raise NlosError(f"{where}: person_quadrature must be one of {', '.join(QUADRATURES)}")
     if cfg.stored_spots_top < 0:
         raise NlosError(f"{where}: stored_spots_top must be at least 0")
+
+
+def memory_needed_bytes(cfg: DatasetConfig) -> int:
+    """A lower bound on the peak memory of one room's precompute, from its largest arrays: the direct image of
+    every candidate spot (about two faces per LOS vertex; float32, kept with one working copy) and
+    the camera sub-samples of the per-scene terms (~200 bytes each: points, normals, materials, rays)."""
+    pixels = cfg.resolution ** 2
+    candidates = 2 * cfg.los_vertices
+    direct = 2 * candidates * pixels * 3 * 4
+    subsamples = (cfg.pixel_samples ** 2 + cfg.transport_pixel_samples ** 2) * pixels * 200
+    return int(direct + subsamples)
+
+
+def available_memory_bytes() -> int | None:
+    """MemAvailable of /proc/meminfo (Linux), else physical memory, else None."""
+    import os
+
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def check_memory(cfg: DatasetConfig, where: str, available: int | None = None) -> None:
+    """NlosError before any work when one room would need more memory than this machine has free
+    (``available`` bytes; default: measured)."""
+    need, have = memory_needed_bytes(cfg), available if available is not None else available_memory_bytes()
+    if have is not None and need > have:
+        raise NlosError(f"{where}: resolution {cfg.resolution} with {cfg.los_vertices} LOS vertices needs about "
+                        f"{need / 2**30:.1f} GiB per room, this machine has {have / 2**30:.1f} GiB free "
+                        "(lower resolution or los_vertices)")
+

@@ -148,9 +148,10 @@ def _generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int], progr
     i, n = shard
     if not (n >= 1 and 0 <= i < n):
         raise NlosError(f"--shard: expected I/N with 0 <= I < N, got {i}/{n}")
-    from .config import validate
+    from .config import check_memory, validate
 
     validate(cfg, "config")  # before anything is written: a refused config leaves nothing behind
+    check_memory(cfg, "config")
     if out.exists() and not out.is_dir():
         raise NlosError(f"--out: {out} is a file, not a dataset directory")
     out.mkdir(parents=True, exist_ok=True)

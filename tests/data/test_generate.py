@@ -171,3 +171,16 @@ def test_bad_values_are_refused_before_anything_is_written(tmp_path, capsys):
     (tmp_path / "f").write_text("x")
     assert main(["generate", "tiny", "--out", str(tmp_path / "f")]) == 2
     assert "is a file" in capsys.readouterr().err
+
+
+def test_a_room_too_big_for_memory_is_refused_before_anything_is_written(micro_config, tmp_path, monkeypatch):
+    """The direct images of every candidate alone: 2 faces per LOS vertex x 2 copies x H W 3 x 4 bytes."""
+    import nlos_spotlight.data.config as dc
+
+    big = DatasetConfig(**{**micro_config, "resolution": 1024, "los_vertices": 800})
+    assert dc.memory_needed_bytes(big) >= 2 * 1600 * 1024 ** 2 * 3 * 4
+    monkeypatch.setattr(dc, "available_memory_bytes", lambda: 8 * 2**30)
+    with pytest.raises(NlosError, match=r"resolution 1024 with 800 LOS vertices needs about 3\d\.\d GiB"):
+        generate(big, tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()
+    dc.check_memory(DatasetConfig(**micro_config), "config")  # the micro room fits anywhere
