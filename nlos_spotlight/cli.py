@@ -14,18 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
+from .args import parse_numbers
 from .errors import NlosError
 from .paths import input_dir, output_dir, output_file
 
 
 def _point(text: str, flag: str = "--spot-point") -> np.ndarray:
-    try:
-        vals = [float(v) for v in text.split(",")]
-    except ValueError:
-        raise NlosError(f"{flag}: expected X,Y,Z, got {text!r}") from None
-    if len(vals) != 3 or not np.all(np.isfinite(vals)):
-        raise NlosError(f"{flag}: expected three finite numbers X,Y,Z, got {text!r}")
-    return np.array(vals)
+    return parse_numbers(text, "X,Y,Z", flag)
 
 
 def cmd_render(args: argparse.Namespace) -> None:

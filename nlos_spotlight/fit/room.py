@@ -70,13 +70,10 @@ class RoomSetup:
 
 def parse_region(text: str) -> tuple[np.ndarray, np.ndarray]:
     """``XMIN,YMIN,XMAX,YMAX`` (m) -> (min (2,), max (2,))."""
-    try:
-        v = [float(t) for t in text.split(",")]
-    except ValueError:
-        raise NlosError(f"--hidden-region: expected XMIN,YMIN,XMAX,YMAX, got {text!r}") from None
-    if len(v) != 4 or not np.all(np.isfinite(v)):
-        raise NlosError(f"--hidden-region: expected four finite numbers XMIN,YMIN,XMAX,YMAX, got {text!r}")
-    lo, hi = np.array(v[:2]), np.array(v[2:])
+    from ..args import parse_numbers
+
+    v = parse_numbers(text, "XMIN,YMIN,XMAX,YMAX", "--hidden-region")
+    lo, hi = v[:2], v[2:]
     if np.any(hi <= lo):
         raise NlosError(f"--hidden-region: XMAX must exceed XMIN and YMAX exceed YMIN, got {text!r}")
     if np.any(hi - lo > 50):
