@@ -58,7 +58,8 @@ def fmt(ms: tuple[float, float, float], goal: float | None = None) -> str:
 
 def mesh_1000():
     """(TriMesh with ~1000 vertices, camera, description)."""
-    from nlos_spotlight.apps.spotlight import default_camera, load_scan_z_up
+    from nlos_spotlight.apps.spotlight import default_camera
+    from nlos_spotlight.scene.scan import load_scan_z_up
     from nlos_spotlight.render.rays import RayEngine
     from nlos_spotlight.scene.builders import box
     from nlos_spotlight.scene.clean import clean_mesh

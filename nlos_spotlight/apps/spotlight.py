@@ -43,6 +43,7 @@ import numpy as np
 import torch
 
 from ..errors import NlosError
+from ..scene.scan import load_scan_z_up
 from ..render.camera import camera_frame, pixel_rays
 from ..render.rays import RayEngine
 from ..scene.format import Camera, TriMesh
@@ -106,35 +107,6 @@ def _camera(position, look_at, up=(0.0, 0.0, 1.0), fov: float = DEFAULT_FOV_DEG,
     return Camera.from_dict({"position": [float(v) for v in position], "look_at": [float(v) for v in look_at],
                              "up": [float(v) for v in up], "fov_deg": float(fov), "width": int(width),
                              "height": int(height)})
-
-
-def rotation_to_z(up: np.ndarray) -> np.ndarray:
-    """(3, 3) the smallest rotation taking the unit vector ``up`` to +z (Rodrigues)."""
-    u = np.asarray(up, np.float64) / np.linalg.norm(up)
-    c = float(u[2])
-    if c > 1 - 1e-12:
-        return np.eye(3)
-    if c < -1 + 1e-12:
-        return np.diag([1.0, -1.0, -1.0])  # half a turn about x
-    v = np.cross(u, [0.0, 0.0, 1.0])
-    k = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    return np.eye(3) + k + k @ k / (1 + c)
-
-
-def load_scan_z_up(path: Path, up: str | None = None) -> tuple[TriMesh, np.ndarray]:
-    """A bare mesh cleaned and turned z up (module docstring, step 1) and its (4, 4) file_to_world."""
-    from ..scene.clean import clean_mesh
-    from ..scene.meshio import load_mesh
-    from ..scene.orient import detect_up_axis
-    from ..scene.scan import UP_AXES
-
-    if up is not None and up not in UP_AXES:
-        raise NlosError(f"--up: unknown axis {up!r} (use one of {', '.join(UP_AXES)})")
-    mesh = clean_mesh(load_mesh(path))
-    rot = rotation_to_z(detect_up_axis(mesh) if up is None else np.array(UP_AXES[up], np.float64))
-    t = np.eye(4)
-    t[:3, :3] = rot
-    return TriMesh(mesh.vertices @ rot.T, mesh.faces, mesh.vertex_colors, mesh.face_colors), t
 
 
 def wall_yaw(mesh: TriMesh) -> float:

@@ -32,3 +32,31 @@ def load_scan(path: str | Path, up: str | None = None, target_vertices: int | No
     mesh = clean_mesh(load_mesh(path))
     mesh, _ = to_z_up(mesh, None if up is None else np.array(UP_AXES[up], dtype=np.float64))
     return mesh if target_vertices is None else decimate(mesh, target_vertices)
+
+
+def rotation_to_z(up: np.ndarray) -> np.ndarray:
+    """(3, 3) the smallest rotation taking the unit vector ``up`` to +z (Rodrigues)."""
+    u = np.asarray(up, np.float64) / np.linalg.norm(up)
+    c = float(u[2])
+    if c > 1 - 1e-12:
+        return np.eye(3)
+    if c < -1 + 1e-12:
+        return np.diag([1.0, -1.0, -1.0])  # half a turn about x
+    v = np.cross(u, [0.0, 0.0, 1.0])
+    k = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    return np.eye(3) + k + k @ k / (1 + c)
+
+
+def load_scan_z_up(path: Path, up: str | None = None) -> tuple[TriMesh, np.ndarray]:
+    """A bare mesh cleaned and turned z up by the smallest rotation (the file's horizontal axes and
+    height kept, so coordinates a user reads off the scan stay meaningful; ``nlos spotlight`` and
+    ``nlos fit``), and its (4, 4) file_to_world. :func:`load_scan` instead normalizes the frame."""
+    from .orient import detect_up_axis
+
+    if up is not None and up not in UP_AXES:
+        raise NlosError(f"--up: unknown axis {up!r} (use one of {', '.join(UP_AXES)})")
+    mesh = clean_mesh(load_mesh(path))
+    rot = rotation_to_z(detect_up_axis(mesh) if up is None else np.array(UP_AXES[up], np.float64))
+    t = np.eye(4)
+    t[:3, :3] = rot
+    return TriMesh(mesh.vertices @ rot.T, mesh.faces, mesh.vertex_colors, mesh.face_colors), t

@@ -211,3 +211,26 @@ def test_clean_mesh_options_and_errors():
         clean_mesh(mesh, merge_tol=0.5)
     with pytest.raises(NlosError, match="no faces"):
         clean_mesh(TriMesh(np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0.0]]), np.array([[0, 1, 2]])))
+
+
+def test_scan_kept_in_its_own_frame_turns_by_the_smallest_rotation(tmp_path):
+    """``load_scan_z_up`` (nlos spotlight, nlos fit): up -> +z, the horizontal axis orthogonal to
+    the turn kept, heights and positions otherwise untouched (closed form for a y-up file)."""
+    import trimesh
+
+    from nlos_spotlight.scene.scan import load_scan_z_up, rotation_to_z
+
+    box = trimesh.creation.box(extents=(4.0, 2.5, 3.0))  # y is the room's height in this file
+    box.apply_translation((1.0, 1.25, -2.0))
+    box.export(tmp_path / "room.ply")
+    mesh, file_to_world = load_scan_z_up(tmp_path / "room.ply", up="y")
+    r = rotation_to_z(np.array([0.0, 1.0, 0.0]))
+    np.testing.assert_allclose(r @ [0, 1, 0], [0, 0, 1], atol=1e-12)
+    np.testing.assert_allclose(r @ [1, 0, 0], [1, 0, 0], atol=1e-12)  # the turn is about x
+    np.testing.assert_allclose(file_to_world[:3, :3], r)
+    np.testing.assert_allclose(file_to_world[:3, 3], 0)
+    lo, hi = mesh.vertices.min(0), mesh.vertices.max(0)
+    np.testing.assert_allclose(lo, [-1.0, 0.5, 0.0], atol=1e-9)  # (x, y, z) -> (x, -z, y): file z in
+    np.testing.assert_allclose(hi, [3.0, 3.5, 2.5], atol=1e-9)  # [-3.5, -0.5] is world y; height 0-2.5 m
+    with pytest.raises(NlosError, match="unknown axis"):
+        load_scan_z_up(tmp_path / "room.ply", up="up")
