@@ -107,7 +107,7 @@ def main() -> None:
         body_b = 0
         with np.load(d / "samples" / "00000.npz") as z:
             body_b = z["body_vertices"].nbytes + z["body_faces"].nbytes
-        from nlos_spotlight.train.scenes import load_scene_tensors
+        from nlos_spotlight.data.tensors import load_scene_tensors
 
         loads = {}
         for kind in ("all", "transport", "images") if args.images else ("all",):

@@ -116,7 +116,7 @@ def ien_timings(repeats: int) -> None:
     from nlos_spotlight.apps.spotlight import camera_to_world
     from nlos_spotlight.models.feast import with_self_loops
     from nlos_spotlight.models.ien import IEN, IENConfig
-    from nlos_spotlight.train.scenes import graph_inputs
+    from nlos_spotlight.data.tensors import graph_inputs
 
     mesh, cam, what = mesh_1000()
     pose = camera_to_world(cam)

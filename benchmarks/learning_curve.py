@@ -36,7 +36,7 @@ import torch
 from nlos_spotlight.evaluate.seen import run_seen, seen_config, split_room
 from nlos_spotlight.models.baselines import BASELINES
 from nlos_spotlight.train.config import TrainConfig
-from nlos_spotlight.train.scenes import load_scene_tensors, split_ids
+from nlos_spotlight.data.tensors import load_scene_tensors, split_ids
 
 COLUMNS = ["protocol", "capture", "policy", "people_per_room", "posture_accuracy", "posture3_accuracy", "error_cm",
            "crb_cm", "seeds", "arch", "mean_answer_cm", "steps", "seconds"]

@@ -2,7 +2,7 @@
 
 A ridge regression from the background-subtracted, RMS-normalized photograph (oracle spot per
 scene, sensor noise on or off) to the floor position in the region frame, fitted on the training
-rooms except every ``--holdout``-th sample (``train.scenes.holdout_mask``); prints its mean error
+rooms except every ``--holdout``-th sample (``data.tensors.holdout_mask``); prints its mean error
 on the fitted samples, on the held-out samples of the same rooms (seen rooms) and on the test
 rooms (unseen rooms), next to the error of always answering the training mean. A linear probe is
 the simplest decoder: if it predicts new people in seen rooms but not in unseen rooms, the limit
@@ -20,7 +20,7 @@ import torch
 
 from nlos_spotlight.lighting.snr import candidate_snr
 from nlos_spotlight.train.imaging import capture_sensor, form_images, photographs
-from nlos_spotlight.train.scenes import holdout_mask, load_split
+from nlos_spotlight.data.tensors import holdout_mask, load_split
 
 
 def features(data: str, split: str, noise: bool, holdout: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -20,7 +20,8 @@ import numpy as np
 import torch
 
 from nlos_spotlight.data.config import DatasetConfig
-from nlos_spotlight.data.generate import plan, transport_count
+from nlos_spotlight.data.config import transport_count
+from nlos_spotlight.data.generate import plan
 from nlos_spotlight.data.scene_builder import SceneBuilder
 from nlos_spotlight.evaluate.crb import position_crb
 from nlos_spotlight.render.person import Person

@@ -27,7 +27,7 @@ import torch
 from nlos_spotlight.lighting.snr import candidate_snr, sensor_config
 from nlos_spotlight.render.sensor import SensorConfig, auto_exposure, noise_variance_dn
 from nlos_spotlight.scene import load_scene
-from nlos_spotlight.train.scenes import split_ids
+from nlos_spotlight.data.tensors import split_ids
 
 
 def snr_electrons(signal, total, exposure: float, cfg: SensorConfig, old: bool) -> float:

@@ -123,7 +123,7 @@ def _step(title: str, argv: list[str]) -> None:
 def seen_room(data: Path, out: Path, progress: bool, min_steps: int = 600) -> Path:
     """Step 5: the seen-rooms recipe (``evaluate.seen``) on the room of ``data``; writes seen-room.md."""
     from .evaluate.seen import run_seen, seen_config, split_room
-    from .train.scenes import load_split
+    from .data.tensors import load_split
 
     rooms = [split_room(s) for s in load_split(data, "train", ["normals"], samples="images")]
     n = min(r.pool.num_samples for r in rooms)

@@ -107,7 +107,7 @@ def check_in_browser():
 def _toy_scene(n: int = 64, seed: int = 0, res: int = 8, best: int = TOY_BEST):
     """8 candidate faces; only under spot ``best`` does the image carry the person's position and posture."""
     from nlos_spotlight.scene.graph import mesh_to_graph, normalize_positions
-    from nlos_spotlight.train.scenes import SceneTensors
+    from nlos_spotlight.data.tensors import SceneTensors
 
     rng = np.random.default_rng(seed)
     mesh = quad([0, 0, 0], [2, 0, 0], [0, 2, 0], 2, 2)

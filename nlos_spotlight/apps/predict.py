@@ -2,7 +2,7 @@
 
 Each frame (see :mod:`.images` for the accepted inputs and how they are linearized and resampled)
 goes through the trained NLOS network: position (x, y) in meters in the region frame the network
-was trained in (``train.scenes.ground_frame``: x along the camera's horizontal viewing direction, y
+was trained in (``data.tensors.ground_frame``: x along the camera's horizontal viewing direction, y
 to its left, from the center of the hidden region; a room model from ``nlos fit`` also gives x, y
 in the room's own z-up coordinates) and the six posture probabilities (softmax of the
 logits). A sequence of at least :data:`MIN_SMOOTH_FRAMES` frames also gets a Savitzky-Golay

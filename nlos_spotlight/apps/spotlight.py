@@ -17,7 +17,7 @@ Pipeline (the inference half of DESIGN section 8, on a user's room):
    :data:`DEFAULT_TARGET_VERTICES`): the IEN sees meshes as dense as those it was trained on. Its
    faces are the spot candidates.
 3. **IEN.** The graph of the LOS mesh in the camera frame (normalized coordinates, plus normals if
-   the run used them: ``train.scenes.graph_inputs``), one logit per face.
+   the run used them: ``data.tensors.graph_inputs``), one logit per face.
 4. **Reachability.** A face is a candidate only if the projector's beam toward its centroid lands
    on it: the first surface of the *full* mesh along the beam lies within
    ``REACH_TOLERANCE_M + REACH_TOLERANCE_REL * range`` of the centroid (decimation moves surfaces
@@ -49,7 +49,7 @@ from ..render.rays import RayEngine
 from ..scene.format import Camera, TriMesh
 from ..scene.orient import fibonacci_sphere
 from ..train.checkpoint import TrainedModels
-from ..train.scenes import graph_inputs
+from ..data.tensors import graph_inputs
 
 DEFAULT_FOV_DEG = 60.0
 """Horizontal field of view of a camera built from flags or the default (a phone or APS-C zoom)."""

@@ -101,35 +101,13 @@ PRESETS = {
 
 
 def load_config(spec: str) -> DatasetConfig:
-    """A preset name or a YAML file of ``DatasetConfig`` fields (optionally ``base: PRESET``)."""
-    if spec in PRESETS:
-        return dataclasses.replace(PRESETS[spec])
-    path = Path(spec)
-    if not path.is_file():
-        raise NlosError(f"config: '{spec}' is neither a preset ({', '.join(PRESETS)}) nor a file")
-    import yaml
+    """A preset name or a YAML file of ``DatasetConfig`` fields (optionally ``base: PRESET``),
+    validated (``config_file.load_config_file``)."""
+    from ..config_file import load_config_file
 
-    try:
-        d = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise NlosError(f"{path}: invalid YAML ({str(exc).splitlines()[0]})") from None
-    if not isinstance(d, dict):
-        raise NlosError(f"{path}: expected a mapping of config fields")
-    base = d.pop("base", "tiny")
-    if base not in PRESETS:
-        raise NlosError(f"{path}: base '{base}' is not a preset ({', '.join(PRESETS)})")
-    cfg = dataclasses.replace(PRESETS[base], name=path.stem)
-    names = {f.name: f for f in dataclasses.fields(DatasetConfig)}
-    for k, v in d.items():
-        if k not in names:
-            raise NlosError(f"{path}: unknown key '{k}'")
-        expected = type(getattr(cfg, k))
-        if expected is float and isinstance(v, int) and not isinstance(v, bool):
-            v = float(v)
-        if not isinstance(v, expected) or isinstance(v, bool) != (expected is bool):
-            raise NlosError(f"{path}: {k} must be {expected.__name__}, got {v!r}")
-        setattr(cfg, k, v)
-    validate(cfg, str(path))
+    cfg, path = load_config_file(spec, PRESETS)
+    if path is not None:
+        validate(cfg, str(path))
     return cfg
 
 
@@ -197,3 +175,28 @@ def check_memory(cfg: DatasetConfig, where: str, available: int | None = None) -
                         f"{need / 2**30:.1f} GiB per room, this machine has {have / 2**30:.1f} GiB free "
                         "(lower resolution or los_vertices)")
 
+
+ROOM_FAMILY = "room"
+"""The family recorded for scenes built on a given room (``DatasetConfig.room``)."""
+
+
+def room_dir(out: Path, room: str) -> Path:
+    """``DatasetConfig.room`` as a directory: relative paths are relative to the dataset directory
+    (a room model can move as a whole)."""
+    p = Path(room)
+    return (p if p.is_absolute() else Path(out) / p).resolve()
+
+
+def sample_count(cfg: DatasetConfig, split: str) -> int:
+    return cfg.samples_per_scene + trajectory_count(cfg, split) * cfg.trajectory_frames
+
+
+def trajectory_count(cfg: DatasetConfig, split: str) -> int:
+    """Walking trajectories per room of ``split`` (validation rooms have none)."""
+    return {"test": cfg.trajectories_per_test_scene, "train": cfg.trajectories_per_train_scene}.get(split, 0)
+
+
+def transport_count(cfg: DatasetConfig, split: str) -> int:
+    """How many of a room's samples (the first ones) store full transport; the rest are image samples."""
+    n = sample_count(cfg, split)
+    return n if cfg.transport_samples_per_scene < 0 else min(n, cfg.transport_samples_per_scene)

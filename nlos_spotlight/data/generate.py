@@ -20,7 +20,7 @@ import numpy as np
 import torch
 
 from ..errors import NlosError
-from .config import DatasetConfig
+from .config import ROOM_FAMILY, DatasetConfig, room_dir, sample_count
 from .store import FORMAT, READABLE, atomic_json, content_sha256, file_digest, remove_stale_temporaries, scene_id
 
 
@@ -40,10 +40,6 @@ class ScenePlan:
     @property
     def id(self) -> str:
         return scene_id(self.split, self.index)
-
-
-ROOM_FAMILY = "room"
-"""The family recorded for scenes built on a given room (``DatasetConfig.room``)."""
 
 
 def plan(cfg: DatasetConfig) -> list[ScenePlan]:
@@ -78,13 +74,6 @@ FORMAT_1_VALUES = {"transport_samples_per_scene": -1, "stored_spots_top": 6, "tr
 config.json lacks them): a run with those values may continue it; other missing fields differ."""
 
 
-def room_dir(out: Path, room: str) -> Path:
-    """``DatasetConfig.room`` as a directory: relative paths are relative to the dataset directory
-    (a room model can move as a whole)."""
-    p = Path(room)
-    return (p if p.is_absolute() else Path(out) / p).resolve()
-
-
 def _check_config(out: Path, cfg: DatasetConfig) -> None:
     path = out / "config.json"
     if path.exists():
@@ -100,21 +89,6 @@ def _check_config(out: Path, cfg: DatasetConfig) -> None:
             raise NlosError(f"{out} holds a dataset made with another config (differs in: {', '.join(diff)})")
     else:
         atomic_json(path, cfg.to_dict())
-
-
-def sample_count(cfg: DatasetConfig, split: str) -> int:
-    return cfg.samples_per_scene + trajectory_count(cfg, split) * cfg.trajectory_frames
-
-
-def trajectory_count(cfg: DatasetConfig, split: str) -> int:
-    """Walking trajectories per room of ``split`` (validation rooms have none)."""
-    return {"test": cfg.trajectories_per_test_scene, "train": cfg.trajectories_per_train_scene}.get(split, 0)
-
-
-def transport_count(cfg: DatasetConfig, split: str) -> int:
-    """How many of a room's samples (the first ones) store full transport; the rest are image samples."""
-    n = sample_count(cfg, split)
-    return n if cfg.transport_samples_per_scene < 0 else min(n, cfg.transport_samples_per_scene)
 
 
 GENERATE_THREADS = 1

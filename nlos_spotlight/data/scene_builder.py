@@ -72,7 +72,7 @@ class SceneBuilder:
         whose index is i mod n, so n processes can share one room (``nlos fit``); every part first
         makes sure the room, its full-transport samples and ``spots.json`` exist (run part 0 alone
         first so the others find them), and whichever part finds every file there writes ``done.json``."""
-        from .generate import sample_count, transport_count
+        from .config import sample_count, transport_count
 
         n = sample_count(self.cfg, self.plan.split)
         m = transport_count(self.cfg, self.plan.split)
@@ -139,7 +139,7 @@ class SceneBuilder:
         """The scene without a person and its family: the config's given room, else a procedural one."""
         if self.cfg.room:
             from ..scene.io import load_scene
-            from .generate import ROOM_FAMILY, room_dir
+            from .config import ROOM_FAMILY, room_dir
 
             scene = load_scene(room_dir(self.out, self.cfg.room))
             if scene.hidden_region is None:
@@ -179,7 +179,7 @@ class SceneBuilder:
         pos = person_positions(scene, rng, m, floor=on_scan)
         specs = [{"params": sample_body_params(rng, POSTURES[p]), "position": pos[k], "trajectory": -1, "frame": -1}
                  for k, p in enumerate(postures)]
-        from .generate import trajectory_count
+        from .config import trajectory_count
 
         walks = trajectory_count(self.cfg, self.plan.split)
         if walks > 0:
@@ -271,9 +271,9 @@ def choose_spots(cfg: DatasetConfig, plan, scene_dir: Path) -> dict:
     :data:`STORED_POLICIES` as the trainer draws them (Random: one per :data:`RANDOM_POLICY_SEEDS`).
     ``spots`` is their sorted union: slot k of an image sample holds candidate ``spots[k]``.
     """
-    from ..lighting import POLICIES
+    from ..lighting import POLICIES, policy_rng
     from ..lighting.snr import candidate_snr
-    from ..train.scenes import load_scene_tensors
+    from .tensors import load_scene_tensors
 
     scene_dir = Path(scene_dir)
     snr = np.asarray(candidate_snr(scene_dir), np.float64)
@@ -284,15 +284,15 @@ def choose_spots(cfg: DatasetConfig, plan, scene_dir: Path) -> dict:
     i = split_position(cfg, plan.index)
     policies: dict = {}
     for name in STORED_POLICIES:
-        keys = [[seed, i] for seed in RANDOM_POLICY_SEEDS] if name == "random" else [[0, i]]
+        seeds = RANDOM_POLICY_SEEDS if name == "random" else (0,)
         picks = []
-        for key in keys:
+        for seed in seeds:
             try:
-                ill = POLICIES[name](s, scene_dir, np.random.default_rng(key))
+                ill = POLICIES[name](s, scene_dir, policy_rng(seed, i))
             except NlosError:  # e.g. no landed candidate in front of the camera: nothing to store
                 ill = None
             picks.append(int(ill.face) if ill is not None and ill.mode == "spot" else None)
-        policies[name] = {str(k[0]): p for k, p in zip(keys, picks)} if name == "random" else picks[0]
+        policies[name] = {str(k): p for k, p in zip(seeds, picks)} if name == "random" else picks[0]
     chosen = set(top) | {p for v in policies.values() for p in (v.values() if isinstance(v, dict) else [v])
                          if p is not None}
     chosen |= {int(t) for t in cfg.extra_spots if 0 <= int(t) < len(landed) and landed[int(t)]}

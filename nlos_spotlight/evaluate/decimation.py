@@ -19,7 +19,7 @@ import torch
 from ..lighting import Illumination
 from ..scene.format import TriMesh
 from ..train.checkpoint import TrainedModels
-from ..train.scenes import SceneTensors, graph_inputs
+from ..data.tensors import SceneTensors, graph_inputs
 
 RATIOS = tuple(round(0.1 * k, 1) for k in range(1, 11))
 """Decimation ratios of the figure (fraction of the dense mesh's vertices kept)."""

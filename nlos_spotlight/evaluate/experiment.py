@@ -17,7 +17,7 @@ import torch
 
 from ..errors import NlosError
 from ..train.checkpoint import load_trained
-from ..train.scenes import load_scene_tensors, split_ids
+from ..data.tensors import load_scene_tensors, split_ids
 from . import decimation as dec
 from .methods import BY_NAME, Method, select
 from .metrics import per_class
@@ -90,7 +90,7 @@ def seen_rooms(data: Path, base) -> tuple[list[str], list]:
     """Training rooms reduced to the samples the run held out of training (``holdout_every``)."""
     if base.holdout_every <= 0:
         return [], []
-    from ..train.scenes import load_split, room_samples
+    from ..data.tensors import load_split, room_samples
 
     keep = lambda s: room_samples(s, base.holdout_every, held=True)
     return split_ids(data, "train"), load_split(data, "train", base.ien_features, keep=keep)

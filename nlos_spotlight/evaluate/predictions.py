@@ -14,10 +14,10 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from ..lighting import POLICIES, Illumination
+from ..lighting import POLICIES, Illumination, policy_rng
 from ..train.checkpoint import TrainedModels
 from ..train.imaging import capture_sensor, form_images, photographs
-from ..train.scenes import SceneTensors
+from ..data.tensors import SceneTensors
 
 
 @dataclass
@@ -73,8 +73,8 @@ def illumination_for(models: TrainedModels, s: SceneTensors, scene_index: int, s
     policy = models.config.policy
     if policy == "ien":
         return ien_illumination(models, s)
-    key = [models.config.seed, scene_index] if seen else [seed, 7919, scene_index]
-    return POLICIES[policy](s, Path(s.scene_dir), np.random.default_rng(key))
+    rng = policy_rng(models.config.seed, scene_index) if seen else policy_rng(seed, scene_index, new_room=True)
+    return POLICIES[policy](s, Path(s.scene_dir), rng)
 
 
 def predict_scene(models: TrainedModels, s: SceneTensors, ill: Illumination, generator: torch.Generator,

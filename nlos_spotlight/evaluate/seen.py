@@ -24,7 +24,7 @@ from ..models.nlos_net import NLOSNetConfig
 from ..train.config import TrainConfig
 from ..train.imaging import form_images, photographs
 from ..train.loop import Trainer
-from ..train.scenes import SceneTensors
+from ..data.tensors import SceneTensors
 from ..world.body import POSTURES
 
 GROUPS = {"standing": 0, "hands_90": 0, "hands_45": 0, "unknown": 0, "sitting": 1, "crouching": 2}

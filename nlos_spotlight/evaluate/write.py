@@ -108,7 +108,7 @@ def policy_panels(ev: Evaluation, data: Path) -> list[dict]:
     from ..render.camera import project
     from ..scene import load_scene
     from ..train.imaging import form_images
-    from ..train.scenes import load_scene_tensors
+    from ..data.tensors import load_scene_tensors
 
     sid = ev.scene_ids[0]
     s = load_scene_tensors(data / "scenes" / sid, ["normals"])

@@ -17,7 +17,7 @@ from .config import FitConfig
 
 
 def region_to_world(xy: np.ndarray, room: dict) -> np.ndarray:
-    """Region-frame positions (N, 2) (``train.scenes.ground_frame``) -> world floor x, y (N, 2)."""
+    """Region-frame positions (N, 2) (``data.tensors.ground_frame``) -> world floor x, y (N, 2)."""
     cam = np.asarray(room["camera"]["position"])
     fwd = np.asarray(room["camera"]["look_at"])[:2] - cam[:2]
     fwd = fwd / np.linalg.norm(fwd)

@@ -30,7 +30,7 @@ def fit_train_config(cfg: FitConfig, out: Path | None = None) -> TrainConfig:
 def room_split(out: Path, cfg: FitConfig, features: list[str]) -> RoomSplit:
     """The room's image samples split into training pool, validation and test (``split_room``):
     ``heldout`` test and as many validation people, spread over the generation order."""
-    from ..train.scenes import load_split
+    from ..data.tensors import load_split
 
     s, = load_split(Path(out) / "data", "train", features, samples="images")
     period = 10 if s.num_samples >= 10 * cfg.heldout else max(3, s.num_samples // cfg.heldout)

@@ -19,4 +19,16 @@ try:  # geometry- and oracle-based policies
 except ImportError:  # pragma: no cover
     pass
 
-__all__ = ["MODES", "POLICIES", "Illumination", "PolicyFn"]
+
+
+def policy_rng(seed: int, room: int, new_room: bool = False):
+    """The random generator a fixed policy draws with in a room. In a training room, ``[seed, room]``
+    (the run's seed, the room's position in the train split): what training used, what the stored
+    image samples hold, what evaluation in that room must redraw. In a new room ``[seed, 7919,
+    room]`` (the evaluation seed), apart from any training draw."""
+    import numpy as np
+
+    return np.random.default_rng([seed, 7919, room] if new_room else [seed, room])
+
+
+__all__ = ["MODES", "POLICIES", "Illumination", "PolicyFn", "policy_rng"]

@@ -79,7 +79,7 @@ def scene_snr(scene_dir: str | Path, skip_every: int = 0, sensor: dict | None = 
 
     ``sensor`` overrides capture settings (a run's ``TrainConfig.sensor``). ``skip_every`` n > 0
     leaves out the samples k with k % n == n - 1, the people a training run
-    holds out of its rooms (``train.scenes.holdout_mask``), so training never reads them.
+    holds out of its rooms (``data.tensors.holdout_mask``), so training never reads them.
     """
     from ..scene import load_scene
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from pathlib import Path
 
 from ..errors import NlosError
 from ..models.ien import IENConfig
@@ -117,27 +116,8 @@ PRESETS = {
 
 
 def load_train_config(spec: str) -> TrainConfig:
-    """A preset name or a YAML file of TrainConfig fields (optionally ``base: PRESET``)."""
-    if spec in PRESETS:
-        return dataclasses.replace(PRESETS[spec])
-    path = Path(spec)
-    if not path.is_file():
-        raise NlosError(f"config: '{spec}' is neither a preset ({', '.join(PRESETS)}) nor a file")
-    import yaml
+    """A preset name or a YAML file of TrainConfig fields (optionally ``base: PRESET``); nested
+    ``ien`` and ``net`` take mappings of their fields (``config_file.load_config_file``)."""
+    from ..config_file import load_config_file
 
-    try:
-        d = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise NlosError(f"{path}: invalid YAML ({str(exc).splitlines()[0]})") from None
-    base = PRESETS.get(d.pop("base", "tiny"))
-    if base is None:
-        raise NlosError(f"{path}: unknown base preset")
-    merged = {**base.to_dict(), "name": path.stem}
-    for k, v in d.items():
-        if k not in merged:
-            raise NlosError(f"{path}: unknown key '{k}'")
-        merged[k] = {**merged[k], **v} if isinstance(merged[k], dict) and isinstance(v, dict) else v
-    try:
-        return TrainConfig.from_dict(merged)
-    except TypeError as exc:
-        raise NlosError(f"{path}: {exc}") from None
+    return load_config_file(spec, PRESETS)[0]

@@ -15,7 +15,7 @@ import torch
 
 from ..errors import NlosError
 from ..render.sensor import SensorConfig, auto_exposure, dn_per_radiance, noise_variance_dn
-from .scenes import SceneTensors
+from ..data.tensors import SceneTensors
 
 
 def form_images(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor | None,
@@ -49,11 +49,11 @@ def _check_stored(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor) -> None:
     k = int(s.stored.sum())
     if y.requires_grad:
         raise NlosError(f"{where}: image samples store {k} of {len(s.stored)} spots, and a spot vector with a "
-                        "gradient needs them all (train the spot policy on train.scenes.transport_samples)")
+                        "gradient needs them all (train the spot policy on data.tensors.transport_samples)")
     off = torch.nonzero((y.detach() != 0) & ~s.stored).flatten()
     if len(off):
         raise NlosError(f"{where}: spot {int(off[0])} is not among the {k} spots stored for image samples "
-                        "(spots.json); use full-transport samples (train.scenes.transport_samples)")
+                        "(spots.json); use full-transport samples (data.tensors.transport_samples)")
 
 
 def capture_sensor(image_shape: tuple[int, int], overrides: dict | None = None) -> SensorConfig:

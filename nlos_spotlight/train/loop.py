@@ -32,7 +32,7 @@ from ..models.registry import build_network
 from ..render.sensor import SensorConfig
 from .config import TrainConfig
 from .imaging import capture_sensor, form_images, photographs
-from .scenes import SceneTensors, load_split, room_samples
+from ..data.tensors import SceneTensors, load_split, room_samples
 
 
 CHECKPOINT_FORMAT = "nlos-checkpoint/1"
@@ -42,12 +42,12 @@ def fixed_illuminations(cfg: TrainConfig, scenes: list[SceneTensors]):
     """Per-scene illumination of a fixed policy (None for the learned 'ien' policy)."""
     if cfg.policy == "ien":
         return None
-    from ..lighting import POLICIES
+    from ..lighting import POLICIES, policy_rng
 
     if cfg.policy not in POLICIES:
         raise NlosError(f"config: unknown policy '{cfg.policy}' (choose from ien, {', '.join(POLICIES)})")
     fn = POLICIES[cfg.policy]
-    return [fn(s, Path(s.scene_dir), np.random.default_rng([cfg.seed, i])) for i, s in enumerate(scenes)]
+    return [fn(s, Path(s.scene_dir), policy_rng(cfg.seed, i)) for i, s in enumerate(scenes)]
 
 
 def spot_snr_targets(cfg: TrainConfig, scenes: list[SceneTensors]) -> list[torch.Tensor | None] | None:

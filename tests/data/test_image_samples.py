@@ -25,7 +25,7 @@ from nlos_spotlight.data.generate import generate, verify
 from nlos_spotlight.data.store import f16_decode, f16_encode
 from nlos_spotlight.errors import NlosError
 from nlos_spotlight.train.imaging import form_images
-from nlos_spotlight.train.scenes import load_scene_tensors, transport_samples
+from nlos_spotlight.data.tensors import load_scene_tensors, transport_samples
 
 M, N = 2, 5
 FIELDS = dict(train_scenes=1, val_scenes=0, test_scenes=0, samples_per_scene=N, transport_rank=0, seed=5,

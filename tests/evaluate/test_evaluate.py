@@ -103,7 +103,7 @@ def test_seen_rooms_are_the_held_out_samples_under_the_training_spot(evaluated):
     from nlos_spotlight.evaluate.runs import run_config
     from nlos_spotlight.train.checkpoint import load_trained
     from nlos_spotlight.train.loop import fixed_illuminations
-    from nlos_spotlight.train.scenes import load_split, room_samples
+    from nlos_spotlight.data.tensors import load_split, room_samples
 
     data, run, report, _ = evaluated
     base = run_config(run)

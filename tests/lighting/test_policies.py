@@ -24,7 +24,7 @@ from nlos_spotlight.scene import load_scene
 from nlos_spotlight.scene.builders import quad
 from nlos_spotlight.scene.format import Camera, HiddenRegion, Material, Projector, Scene, Shape
 from nlos_spotlight.train.imaging import form_images
-from nlos_spotlight.train.scenes import load_scene_tensors
+from nlos_spotlight.data.tensors import load_scene_tensors
 
 
 

@@ -83,7 +83,7 @@ def test_cosine_schedule_decays_to_one_percent(toy_scene):
 
 def test_walks_in_training_rooms_are_held_out_of_training(toy_scene):
     """A training room's walking-trajectory frames are for tracking in seen rooms: never trained on."""
-    from nlos_spotlight.train.scenes import holdout_mask, room_samples
+    from nlos_spotlight.data.tensors import holdout_mask, room_samples
 
     room = toy_scene(n=20)
     room.trajectory[15:] = torch.tensor([[0, f] for f in range(5)])

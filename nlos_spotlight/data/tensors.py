@@ -171,7 +171,7 @@ _LABELS = ("position", "posture", "trajectory", "frame")
 def _read_sample(path: Path, image: bool) -> dict:
     """The arrays the loader needs from one sample file, read whole and closed (a room may hold
     thousands: open NpzFiles would exhaust file handles); float16 images decoded to float32."""
-    from ..data.store import f16_decode
+    from .store import f16_decode
 
     with np.load(path) as z:
         out = {k: z[k] for k in _LABELS}

@@ -1,0 +1,70 @@
+"""Dataset and training configs read the same way: a preset name, or a YAML file of fields on top
+of a preset (``base: NAME``), every key and type checked into one-line errors."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from .errors import NlosError
+
+
+def load_config_file(spec: str, presets: dict, default_base: str = "tiny"):
+    """``(config, path)``: a copy of preset ``spec``, or the YAML file ``spec`` applied to its
+    ``base`` preset with ``name`` = the file's stem (path None for a preset)."""
+    if spec in presets:
+        return dataclasses.replace(presets[spec]), None
+    path = Path(spec)
+    if not path.is_file():
+        raise NlosError(f"config: '{spec}' is neither a preset ({', '.join(presets)}) nor a file")
+    import yaml
+
+    try:
+        d = yaml.safe_load(path.read_text()) or {}
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        raise NlosError(f"{path}: invalid YAML ({str(exc).splitlines()[0]})") from None
+    if not isinstance(d, dict):
+        raise NlosError(f"{path}: expected a mapping of config fields")
+    base = d.pop("base", default_base)
+    if not isinstance(base, str) or base not in presets:
+        raise NlosError(f"{path}: base '{base}' is not a preset ({', '.join(presets)})")
+    cfg = apply_fields(dataclasses.replace(presets[base], name=path.stem), d, str(path))
+    return cfg, path
+
+
+def apply_fields(cfg, values: dict, where: str, prefix: str = ""):
+    """A copy of dataclass ``cfg`` with ``values`` set, each checked against the field's current
+    type (an int is a float; a bool is only a bool); nested configs take a mapping of their own
+    fields, dict fields are merged."""
+    fields = {f.name for f in dataclasses.fields(cfg)}
+    changes = {}
+    for k, v in values.items():
+        key = f"{prefix}{k}"
+        if not isinstance(k, str) or k not in fields:
+            raise NlosError(f"{where}: unknown key '{key}'")
+        cur = getattr(cfg, k)
+        if dataclasses.is_dataclass(cur):
+            if not isinstance(v, dict):
+                raise NlosError(f"{where}: {key} must be a mapping of its fields, got {v!r}")
+            changes[k] = apply_fields(cur, v, where, key + ".")
+            continue
+        if isinstance(cur, dict):
+            if not isinstance(v, dict):
+                raise NlosError(f"{where}: {key} must be a mapping, got {v!r}")
+            changes[k] = {**cur, **v}
+            continue
+        expected = type(cur)
+        if expected is float and isinstance(v, int) and not isinstance(v, bool):
+            v = float(v)
+        if expected in (list, tuple) and isinstance(v, (list, tuple)):
+            v = expected(v)
+        if cur is not None and (not isinstance(v, expected) or isinstance(v, bool) != (expected is bool)):
+            raise NlosError(f"{where}: {key} must be {expected.__name__}, got {v!r}")
+        changes[k] = v
+    try:
+        return dataclasses.replace(cfg, **changes)
+    except (TypeError, ValueError) as exc:
+        raise NlosError(f"{where}: {exc}") from None
+
+
+__all__ = ["apply_fields", "load_config_file"]
