@@ -21,7 +21,8 @@ import torch
 
 from ..errors import NlosError
 from .config import ROOM_FAMILY, DatasetConfig, room_dir, sample_count
-from .store import FORMAT, READABLE, atomic_json, content_sha256, file_digest, remove_stale_temporaries, scene_id
+from .store import (FORMAT, READABLE, atomic_json, content_sha256, file_digest, read_manifest, remove_stale_temporaries,
+                    scene_id)
 
 
 @dataclass
@@ -176,12 +177,7 @@ def finalize(cfg: DatasetConfig, out: Path) -> dict | None:
 def verify(out: Path) -> dict:
     """Recompute every digest and the content hash; raise NlosError on any mismatch or corruption."""
     out = Path(out)
-    try:
-        manifest = json.loads((out / "manifest.json").read_text())
-    except FileNotFoundError:
-        raise NlosError(f"{out}: no manifest.json (dataset incomplete; rerun nlos generate)") from None
-    except json.JSONDecodeError:
-        raise NlosError(f"{out}/manifest.json: corrupted (invalid JSON)") from None
+    manifest = read_manifest(out)
     if manifest.get("format") not in READABLE:
         raise NlosError(f"{out}: format {manifest.get('format')!r}, this reader supports {', '.join(READABLE)}")
     digests = {}

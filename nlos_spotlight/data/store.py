@@ -22,6 +22,20 @@ READABLE = ("nlos-dataset/1", FORMAT)
 """Formats this version reads (a /1 dataset is a /2 dataset without image samples)."""
 
 
+def read_manifest(data_dir: str | Path) -> dict:
+    """A dataset's ``manifest.json``, checked to hold its splits of scene records; NlosError naming
+    the file when it is missing (the dataset is unfinished) or corrupted."""
+    path = Path(data_dir) / "manifest.json"
+    try:
+        manifest = json.loads(path.read_text())
+        [s["id"] for split in manifest["splits"].values() for s in split]
+    except FileNotFoundError:
+        raise NlosError(f"{data_dir}: no manifest.json (dataset unfinished: rerun nlos generate)") from None
+    except (ValueError, KeyError, TypeError, AttributeError):
+        raise NlosError(f"{path}: corrupted (not a dataset manifest)") from None
+    return manifest
+
+
 def scene_id(split: str, index: int) -> str:
     return f"{split}-{index:05d}"
 

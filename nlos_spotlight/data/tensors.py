@@ -259,14 +259,10 @@ def load_scene_tensors(scene_dir: Path, features: list[str], samples: str = "all
 
 def split_ids(data_dir: str | Path, split: str) -> list[str]:
     """Scene ids of a finished dataset's split (NlosError when unfinished, corrupted or empty)."""
+    from .store import read_manifest
+
     data_dir = Path(data_dir)
-    try:
-        manifest = json.loads((data_dir / "manifest.json").read_text())
-    except FileNotFoundError:
-        raise NlosError(f"{data_dir}: no manifest.json (not a finished nlos dataset)") from None
-    except json.JSONDecodeError:
-        raise NlosError(f"{data_dir}/manifest.json: corrupted (invalid JSON)") from None
-    ids = [s["id"] for s in manifest["splits"].get(split, [])]
+    ids = [s["id"] for s in read_manifest(data_dir)["splits"].get(split, [])]
     if not ids:
         raise NlosError(f"{data_dir}: split '{split}' is empty")
     return ids

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import NlosError
-from .store import content_sha256, file_digest
+from .store import content_sha256, file_digest, read_manifest
 
 
 def digest_problems(scene_dir: Path) -> list[tuple[Path, str]]:
@@ -82,13 +82,13 @@ def _check(path: Path, shapes: dict) -> list[tuple[Path, str]]:
 def dataset_problems(data: Path, shapes: bool = True) -> tuple[list[tuple[Path, str]], int]:
     """Every problem of a dataset directory, and how many files were checked."""
     data = Path(data)
-    try:
-        manifest = json.loads((data / "manifest.json").read_text())
-        scenes = [s["id"] for split in manifest["splits"].values() for s in split]
-    except FileNotFoundError:
+    if not (data / "manifest.json").exists():
         return [(data / "manifest.json", "missing (dataset incomplete; rerun nlos generate)")], 0
-    except (ValueError, KeyError, TypeError, AttributeError):
+    try:
+        manifest = read_manifest(data)
+    except NlosError:
         return [(data / "manifest.json", "corrupted")], 0
+    scenes = [s["id"] for split in manifest["splits"].values() for s in split]
     problems, digests, n = [], {}, 0
     for sid in scenes:
         d = data / "scenes" / sid

@@ -184,3 +184,21 @@ def test_a_room_too_big_for_memory_is_refused_before_anything_is_written(micro_c
         generate(big, tmp_path / "out", progress=False)
     assert not (tmp_path / "out").exists()
     dc.check_memory(DatasetConfig(**micro_config), "config")  # the micro room fits anywhere
+
+
+def test_one_manifest_reader_for_generate_verify_and_training(reference, tmp_path):
+    """A missing or corrupted manifest.json: the same one-line error from every reader of it."""
+    from nlos_spotlight.data.tensors import split_ids
+    from nlos_spotlight.data.verify import dataset_problems
+
+    data, _ = reference
+    for name, text, match in (("missing", None, "no manifest.json"), ("list", "[1, 2]", "corrupted"),
+                              ("torn", '{"splits": {"train": [{"i', "corrupted")):
+        d = tmp_path / name
+        shutil.copytree(data, d)
+        (d / "manifest.json").unlink() if text is None else (d / "manifest.json").write_text(text)
+        for read in (lambda: verify(d), lambda: split_ids(d, "train")):
+            with pytest.raises(NlosError, match=match) as e:
+                read()
+            assert "\n" not in str(e.value)
+        assert dataset_problems(d)[0][0][0].name == "manifest.json"
