@@ -28,7 +28,7 @@ def cmd_render(args: argparse.Namespace) -> None:
 
     from .render.person import Person
     from .render.sensor import SensorConfig, auto_exposure, sensor_capture
-    from .render.transport import COMPONENTS, Renderer, RenderSettings
+    from .render.transport import COMPONENTS, RENDER_PRESETS, Renderer
     from .scene import load_scene
 
     comps = tuple(c.strip() for c in args.components.split(",")) if args.components else COMPONENTS
@@ -38,8 +38,13 @@ def cmd_render(args: argparse.Namespace) -> None:
     out = output_file(args.out, "--out")
     if out.suffix != ".npy":
         raise NlosError(f"--out: expected a .npy path, got {out}")
-    for flag in ("pixel_samples", "transport_samples", "person_samples", "spot_samples"):
+    base = RENDER_PRESETS["single-image"]  # the flags' defaults: one place, render/transport.py
+    counts = {"pixel_samples": "pixel_samples", "transport_samples": "transport_pixel_samples",
+              "person_samples": "person_samples", "spot_samples": "spot_samples"}
+    for flag, field_name in counts.items():
         v = getattr(args, flag)
+        if v is None:
+            setattr(args, flag, v := getattr(base, field_name))
         if not 1 <= v <= 100_000:
             raise NlosError(f"--{flag.replace('_', '-')}: expected a count from 1 to 100000, got {v}")
     scene = load_scene(args.scene_dir, human_mesh=args.human)
@@ -52,8 +57,7 @@ def cmd_render(args: argparse.Namespace) -> None:
         aim = scene.static_mesh()[0].centroids()[args.spot_face]
     if np.linalg.norm(aim - scene.projector.position) < 1e-6:
         raise NlosError(f"--spot-point: {aim.tolist()} is the projector's own position; aim at a surface")
-    settings = RenderSettings(pixel_samples=args.pixel_samples, transport_pixel_samples=args.transport_samples,
-                              person_samples=args.person_samples, spot_samples=args.spot_samples)
+    settings = dataclasses.replace(base, **{f: getattr(args, flag) for flag, f in counts.items()})
     r = Renderer(scene, settings, aim_points=aim[None])
     if not r.spot_landed[0]:
         raise NlosError(f"projector: aimed at nothing (no surface along the beam toward {aim.tolist()})")
@@ -263,6 +267,8 @@ def cmd_predict(args: argparse.Namespace) -> None:
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="nlos", description="NLOS human localization with a projector spotlight")
     sub = p.add_subparsers(dest="command", required=True)
+    from .render.settings import RENDER_PRESETS
+
     r = sub.add_parser("render", help="render a scene under one spot")
     r.add_argument("scene_dir")
     g = r.add_mutually_exclusive_group(required=True)
@@ -278,10 +284,12 @@ def build_parser() -> argparse.ArgumentParser:
                                             "scene's sensor setting, else 1)")
     r.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
     r.add_argument("--out", required=True, help="output .npy, float32 (height, width, 3)")
-    r.add_argument("--pixel-samples", type=int, default=4, help="n x n sub-samples per pixel (per-scene terms)")
-    r.add_argument("--transport-samples", type=int, default=2, help="n x n sub-samples per pixel (person terms)")
-    r.add_argument("--person-samples", type=int, default=1024, help="quadrature points on the person's body")
-    r.add_argument("--spot-samples", type=int, default=256, help="points sampling the spot's footprint")
+    one = RENDER_PRESETS["single-image"]
+    r.add_argument("--pixel-samples", type=int, help=f"n x n sub-samples per pixel, per-scene terms ({one.pixel_samples})")
+    r.add_argument("--transport-samples", type=int,
+                   help=f"n x n sub-samples per pixel, person terms ({one.transport_pixel_samples})")
+    r.add_argument("--person-samples", type=int, help=f"quadrature points on the person's body ({one.person_samples})")
+    r.add_argument("--spot-samples", type=int, help=f"points sampling the spot's footprint ({one.spot_samples})")
     r.set_defaults(func=cmd_render)
     g = sub.add_parser("generate", help="generate a synthetic dataset (deterministic, sharded, resumable)")
     g.add_argument("config", help="preset (tiny, demo, demo-room, small, paper) or a YAML file of DatasetConfig fields")

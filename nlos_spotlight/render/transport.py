@@ -33,30 +33,11 @@ from .kernels import pair_geometry
 from .person import Person, as_translation
 from .rays import RayEngine, SceneRays, pair_rays
 from .spot import cone_directions, spot_profile
+from .settings import RENDER_PRESETS, RenderSettings  # noqa: F401  (re-exported beside the renderer)
 from .surface import StaticSurfaces, SurfacePoints
 
 COMPONENTS = ("direct", "interreflection", "ambient", "nlos", "nlos_ambient")
 DEFAULT_COMPONENTS = ("direct", "ambient", "nlos", "nlos_ambient")
-
-
-@dataclass
-class RenderSettings:
-    """Sampling and numerics of :class:`Renderer`."""
-
-    pixel_samples: int = 4
-    """n: n x n stratified sub-samples per pixel for the per-scene terms (direct, ambient, interreflection)."""
-    transport_pixel_samples: int = 2
-    """n x n sub-samples per pixel for person -> pixel transport (the per-person cost)."""
-    spot_samples: int = 64
-    """Projector rays per candidate spot (equal solid angle)."""
-    person_samples: int = 512
-    """Area samples on the body."""
-    chunk: int = 2048
-    """Receiver rows per block in the pair kernels (bounds memory)."""
-    dtype: str = "float32"
-    """torch dtype name for everything after ray casting ('float64' for gradcheck)."""
-    device: str = "auto"
-    """'cpu', 'cuda' or 'auto' (cuda when available)."""
 
 
 @dataclass

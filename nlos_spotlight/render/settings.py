@@ -1,0 +1,36 @@
+"""Sampling and numerics of the renderer (``render.transport.Renderer``), and named presets; kept
+apart from the renderer so that reading them (``nlos render --help``) does not import torch."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass
+class RenderSettings:
+    """Sampling and numerics of :class:`Renderer`."""
+
+    pixel_samples: int = 4
+    """n: n x n stratified sub-samples per pixel for the per-scene terms (direct, ambient, interreflection)."""
+    transport_pixel_samples: int = 2
+    """n x n sub-samples per pixel for person -> pixel transport (the per-person cost)."""
+    spot_samples: int = 64
+    """Projector rays per candidate spot (equal solid angle)."""
+    person_samples: int = 512
+    """Area samples on the body."""
+    chunk: int = 2048
+    """Receiver rows per block in the pair kernels (bounds memory)."""
+    dtype: str = "float32"
+    """torch dtype name for everything after ray casting ('float64' for gradcheck)."""
+    device: str = "auto"
+    """'cpu', 'cuda' or 'auto' (cuda when available)."""
+
+
+RENDER_PRESETS = {
+    "default": RenderSettings(),
+    "single-image": RenderSettings(person_samples=1024, spot_samples=256),
+}
+"""Named render settings: ``default`` (per-person rendering in datasets takes its counts from the
+dataset config), ``single-image`` (``nlos render``: one image, more samples for less noise)."""
+
+__all__ = ["RENDER_PRESETS", "RenderSettings"]
