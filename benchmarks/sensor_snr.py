@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from nlos_spotlight.lighting.snr import candidate_snr, sensor_config
+from nlos_spotlight.lighting.snr import candidate_snr
 from nlos_spotlight.render.sensor import SensorConfig, auto_exposure, noise_variance_dn
 from nlos_spotlight.scene import load_scene
 from nlos_spotlight.data.tensors import split_ids
@@ -45,7 +45,7 @@ def snr_electrons(signal, total, exposure: float, cfg: SensorConfig, old: bool) 
 
 
 def room(scene_dir: Path) -> dict:
-    cfg = sensor_config(load_scene(scene_dir))
+    cfg = SensorConfig.for_scene(load_scene(scene_dir))
     old_cfg = SensorConfig.from_dict({**cfg.to_dict(), "metering": "highlight"})
     st = np.load(scene_dir / "static.npz")
     t = int(np.argmax(candidate_snr(scene_dir)))

@@ -36,11 +36,6 @@ from ..errors import NlosError
 from ..render.sensor import SensorConfig, auto_exposure, dn_per_radiance, expected_dn, noise_variance_dn
 
 
-def sensor_config(scene, overrides: dict | None = None) -> SensorConfig:
-    """The scene's sensor (:meth:`SensorConfig.for_scene`: its ``sensor`` overrides, then ``overrides``)."""
-    return SensorConfig.for_scene(scene, overrides)
-
-
 def _information(s: torch.Tensor, mu: torch.Tensor, cfg: SensorConfig, dims) -> torch.Tensor:
     """sum s^2 / var over unclipped values (a saturated pixel carries no signal)."""
     var = noise_variance_dn(mu, cfg)
@@ -87,7 +82,7 @@ def scene_snr(scene_dir: str | Path, skip_every: int = 0, sensor: dict | None = 
     st = np.load(scene_dir / "static.npz")
     direct, ambient = torch.as_tensor(st["direct"]).double(), torch.as_tensor(st["ambient"]).double()
     landed = np.asarray(st["spot_landed"], bool)
-    cfg = sensor_config(load_scene(scene_dir), sensor)
+    cfg = SensorConfig.for_scene(load_scene(scene_dir), sensor)
     lit = np.flatnonzero(landed)
     static_t = direct[lit] + ambient  # (L, H, W, 3) person-free photographs of the landed spots
     exposures = torch.tensor([auto_exposure(img, cfg) for img in static_t], dtype=torch.float64)

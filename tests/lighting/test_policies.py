@@ -15,7 +15,8 @@ from nlos_spotlight.errors import NlosError
 from nlos_spotlight.lighting import POLICIES, Illumination
 from nlos_spotlight.lighting.adaptive import AdaptiveConfig, adaptive_scores
 from nlos_spotlight.lighting.center import center_candidate
-from nlos_spotlight.lighting.snr import candidate_snr, scene_snr, sensor_config, snr
+from nlos_spotlight.lighting.snr import candidate_snr, scene_snr, snr
+from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.render.camera import pixel_rays
 from nlos_spotlight.render.rays import RayEngine
 from nlos_spotlight.render.sensor import auto_exposure
@@ -42,7 +43,7 @@ def test_scene_snr_equals_the_per_candidate_formula(micro_config, micro_scene):
     """The batched SNR equals SNR_t = sqrt(sum_p s_p^2 / var_p) evaluated one candidate at a time."""
     scene_dir, _ = micro_scene
     st = np.load(scene_dir / "static.npz")
-    cfg = sensor_config(load_scene(scene_dir))
+    cfg = SensorConfig.for_scene(load_scene(scene_dir))
     direct, ambient = torch.as_tensor(st["direct"]).double(), torch.as_tensor(st["ambient"]).double()
     landed = st["spot_landed"]
     rows = []
@@ -102,7 +103,7 @@ def test_oracle_has_the_highest_snr_and_matches_the_training_images(micro_scene)
     assert np.all(values[ill.face] >= values[landed]) and values[ill.face] > values[landed].mean()
     assert np.all(values[~landed] == 0)
     # the same SNR from the images the trainer forms (float32 tensors, y one-hot)
-    cfg = sensor_config(load_scene(scene_dir))
+    cfg = SensorConfig.for_scene(load_scene(scene_dir))
     static_idx = torch.nonzero(s.trajectory[:, 0] < 0).flatten()
     for t in {ill.face, int(np.flatnonzero(landed)[0])}:
         images, free = form_images(s, static_idx, Illumination("spot", t).spot_vector(len(s.faces)))
