@@ -79,7 +79,7 @@ def run_one(args, rooms, spec: dict, seed: int):
     """One run of the plan: a network on every room, or with ``--per-room`` one per room, pooled."""
     if not args.per_room:
         return run_spec(args, rooms, spec, seed, "")
-    return pool_results([run_spec(args, [r], spec, seed, f"/room-{i}") for i, r in enumerate(rooms)],
+    return pool_results([run_spec(args, [r], spec, seed, f"/room-{i}", room_index=i) for i, r in enumerate(rooms)],
                         [r.test.num_samples for r in rooms])
 
 
@@ -94,7 +94,10 @@ def pool_results(res: list, tests: list[int]):
         steps=sum(r.steps for r in res), seconds=sum(r.seconds for r in res))
 
 
-def run_spec(args, rooms, spec: dict, seed: int, sub: str):
+def run_spec(args, rooms, spec: dict, seed: int, sub: str, room_index: int | None = None):
+    """One training run on ``rooms``; ``room_index``: the one room's position in the train split
+    (``--per-room``), whose key a random policy draws with (``lighting.policy_rng``), as the
+    stored image samples were drawn."""
     cfg = base_config(args, seed, spec["backbone"], len(rooms))
     cfg = dataclasses.replace(cfg, sensor_noise=spec["capture"] != "noise-free")
     if spec["capture"].startswith("burst-"):  # a still capture averaging N frames (DESIGN section 6)
@@ -106,8 +109,14 @@ def run_spec(args, rooms, spec: dict, seed: int, sub: str):
     label = arch_label(spec["backbone"], args.stem, args.pool_grid).replace("/", "-")
     key = f"{spec['capture']}-{spec['policy']}-{spec['n']}-{label}-s{seed}" + ("-per-room" if args.per_room else "")
     epochs = args.epochs * (args.resnet18_epoch_scale if spec["backbone"] == "resnet18" else 1.0)
+    spots = None
+    if room_index is not None and spec["policy"] != "ien":  # the room's own draw, not room 0's
+        from nlos_spotlight.lighting import POLICIES, policy_rng
+
+        s = rooms[0].pool
+        spots = [POLICIES[spec["policy"]](s, Path(s.scene_dir), policy_rng(cfg.seed, room_index)).face]
     return run_seen(cfg, rooms, spec["n"], Path(args.runs) / (key + sub), epochs, progress=not args.quiet,
-                    min_steps=args.min_steps)
+                    min_steps=args.min_steps, spots=spots)
 
 
 def load_rooms(data: Path) -> list:

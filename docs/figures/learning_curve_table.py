@@ -1,10 +1,14 @@
-"""Render docs/results/learning-curve.csv as the markdown table of docs/results.md (rerun after the curve)."""
+"""Render a learning-curve CSV as the markdown table of docs/results.md (rerun after the curve).
+
+    python docs/figures/learning_curve_table.py [docs/results/per-room/learning-curve.csv]
+"""
 
 import csv
+import sys
 from pathlib import Path
 
-here = Path(__file__).parent.parent / "results"
-rows = list(csv.DictReader((here / "learning-curve.csv").open()))
+path = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).parent.parent / "results" / "learning-curve.csv"
+rows = list(csv.DictReader(path.open()))
 print("| capture | spot | people/room | network | posture (6) | upright/sitting/crouching | error | CRB "
       "| error / CRB |")
 print("|---|---|---|---|---|---|---|---|---|")
