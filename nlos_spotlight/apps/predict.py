@@ -111,7 +111,8 @@ def run_network(models: TrainedModels, images: np.ndarray, batch_size: int = 64,
     if clipped is None:
         clipped = np.zeros(images.shape[:3], bool)
     bg = lambda n: None if background is None else np.broadcast_to(background, (n, *background.shape))
-    calibration = [(images[i:i + 1], bg(1), clipped[i:i + 1]) for i in range(min(16, len(images)))]
+    calibration = [(images[i:i + 1], bg(1), clipped[i:i + 1]) for i in range(min(16, len(images)))] \
+        if backend == "onnx-int8" else None
     run = compile_network(models.net, tuple(models.image_shape), backend, calibration=calibration)
     xy, probs = [], []
     for s in range(0, len(images), batch_size):

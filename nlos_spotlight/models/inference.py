@@ -42,9 +42,11 @@ def fold_batch_norm(net: nn.Module) -> nn.Module:
     (w' = w * g / sqrt(v + eps), b' = (b - m) * g / sqrt(v + eps) + beta), channels-last."""
     from torch.fx.experimental.optimization import fuse
 
+    from .resnet import ResNet
+
     net = copy.deepcopy(net).eval()
     for name, child in list(net.named_modules()):
-        if hasattr(child, "stages") and hasattr(child, "stem"):  # a models.resnet.ResNet: traceable as is
+        if isinstance(child, ResNet):  # traceable as is
             parent, attr = _parent(net, name)
             setattr(parent, attr, fuse(child))
     return net.to(memory_format=torch.channels_last)
@@ -80,13 +82,16 @@ def export_onnx(net: nn.Module, shape: tuple[int, int], path: Path) -> Path:
     import warnings
 
     quiet = logging.getLogger("torch.onnx")  # its notes (torchvision absent, progress) are not ours to show
-    level, quiet.level = quiet.level, logging.ERROR
-    with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
-        warnings.simplefilter("ignore")
-        torch.onnx.export(copy.deepcopy(net).eval(), args, str(path), input_names=names,
-                          output_names=["position", "logits"], dynamic_shapes=dyn, dynamo=True, optimize=True,
-                          verbose=False)
-    quiet.setLevel(level)
+    level = quiet.level
+    quiet.setLevel(logging.ERROR)
+    try:
+        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
+            warnings.simplefilter("ignore")
+            torch.onnx.export(copy.deepcopy(net).eval(), args, str(path), input_names=names,
+                              output_names=["position", "logits"], dynamic_shapes=dyn, dynamo=True, optimize=True,
+                              verbose=False)
+    finally:  # the caller's logging as it was, even when the export fails
+        quiet.setLevel(level)
     return path
 
 
