@@ -104,6 +104,8 @@ def rel(a: torch.Tensor, b: torch.Tensor) -> float:
 
 def run_preset(name: str, args) -> None:
     cfg = PRESETS[name]
+    if args.body_faces:
+        cfg = dataclasses.replace(cfg, body_faces=args.body_faces)
     scene, r, flash = renderers(cfg, args.seed, args.max_spots)
     rng = np.random.default_rng([args.seed, 7])
     xy = person_positions(scene, rng, 1)[0]
@@ -148,6 +150,7 @@ def main() -> None:
     ap.add_argument("--faces-n", type=int, nargs="*", default=[1500, 4000], help="faces-rule sample counts")
     ap.add_argument("--max-spots", type=int, default=0, help="evenly spaced subset of the candidates (0: all)")
     ap.add_argument("--seed", type=int, default=0, help="room seed")
+    ap.add_argument("--body-faces", type=int, default=0, help="override the presets' body_faces (0: keep)")
     ap.add_argument("--quick", action="store_true",
                     help="standing and hands_45 only, 8000-sample reference, at most 64 candidates")
     args = ap.parse_args()

@@ -152,6 +152,19 @@ def micro_config():
     return types.MappingProxyType(MICRO)
 
 
+@pytest.fixture(scope="session")
+def micro_scene(micro_config, tmp_path_factory):
+    """The test scene of the micro dataset (generated once a session): its directory and its tensors."""
+    from nlos_spotlight.data.config import DatasetConfig
+    from nlos_spotlight.data.generate import generate
+    from nlos_spotlight.data.tensors import load_scene_tensors
+
+    out = tmp_path_factory.mktemp("micro")
+    generate(DatasetConfig(**micro_config), out, progress=False)
+    scene_dir = next((out / "scenes").glob("test-*"))
+    return scene_dir, load_scene_tensors(scene_dir, [])
+
+
 @pytest.fixture(scope="module")
 def one_thread():
     """Tiny images and graphs: on a shared 2-core machine, OpenMP threads that wait for each other

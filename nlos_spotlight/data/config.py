@@ -91,7 +91,7 @@ PRESETS = {
                                person_samples=192, person_quadrature="mc"),
     "small": DatasetConfig(name="small", train_scenes=16, val_scenes=4, test_scenes=6, samples_per_scene=36,
                            trajectories_per_test_scene=2, trajectories_per_train_scene=1, trajectory_frames=30,
-                           resolution=32, los_vertices=300),
+                           resolution=32, los_vertices=300, person_samples=4000),  # <= 0.5% from converged
     "paper": DatasetConfig(name="paper", train_scenes=300, val_scenes=30, test_scenes=60, samples_per_scene=120,
                            trajectories_per_test_scene=4, trajectories_per_train_scene=1, trajectory_frames=60,
                            resolution=64, los_vertices=800,

@@ -16,7 +16,7 @@ import torch.nn.functional as F
 
 from ..lighting import POLICIES, Illumination, policy_rng
 from ..train.checkpoint import TrainedModels
-from ..train.imaging import capture_sensor, form_images, photographs
+from ..train.imaging import capture, capture_sensor
 from ..data.tensors import SceneTensors
 
 
@@ -87,10 +87,8 @@ def predict_scene(models: TrainedModels, s: SceneTensors, ill: Illumination, gen
     with torch.no_grad():
         for start in range(0, s.num_samples, batch):
             idx = torch.arange(start, min(start + batch, s.num_samples))
-            images, person_free = form_images(s, idx, y, ill.mode)
-            ph = photographs(images, person_free, sensor, generator,
-                             background=models.config.net.background_subtract)
-            p, logits = models.net(ph.images, ph.background, ph.clipped)
+            ph = capture(s, idx, y, ill.mode, sensor, generator, True, models.config.net)
+            p, logits = models.net(ph.images, ph.background, ph.clipped, ph.geometry)
             pos.append(p.numpy())
             prob.append(F.softmax(logits, dim=1).numpy())
     if not pos:  # a room with no samples (e.g. none held out of it)

@@ -22,7 +22,7 @@ import torch
 
 from ..models.nlos_net import NLOSNetConfig
 from ..train.config import TrainConfig
-from ..train.imaging import form_images, photographs
+from ..train.imaging import capture
 from ..train.loop import Trainer
 from ..data.tensors import SceneTensors
 from ..world.body import POSTURES
@@ -118,9 +118,8 @@ def score(tr: Trainer, rooms: list[RoomSplit], noise: bool, seed: int = 0, batch
             t = room.test.to(tr.device)
             for a in range(0, t.num_samples, batch):
                 idx = torch.arange(a, min(a + batch, t.num_samples), device=tr.device)
-                img, free = form_images(t, idx, y, mode)
-                ph = photographs(img, free, tr.sensor, gen, noise, tr.cfg.net.background_subtract)
-                pos, logits = tr.net(ph.images, ph.background, ph.clipped)
+                ph = capture(t, idx, y, mode, tr.sensor, gen, noise, tr.cfg.net)
+                pos, logits = tr.net(ph.images, ph.background, ph.clipped, ph.geometry)
                 for k, v in (("room", torch.full_like(idx, i)), ("true_xy", t.target[idx]), ("pred_xy", pos),
                              ("true_posture", t.posture[idx]), ("pred_posture", logits.argmax(1))):
                     cols[k].append(v.cpu().numpy())

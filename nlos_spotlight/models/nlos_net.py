@@ -6,11 +6,15 @@ empty-room photograph under the same illumination (a capture a user can make; th
 done by the wrapper of ``models.registry`` for every network alike), divided per image by its root
 mean square (:func:`exposure_normalized`: exposure-invariant, and safe for signed differences).
 
-With ``clip_flag`` the sensor's clip flag (B, H, W) is a fourth input channel.
+With ``clip_flag`` the sensor's clip flag (B, H, W) is a fourth input channel. With ``geometry``
+(the geometry-aware network of rooms it never saw) ten more channels say what each pixel shows:
+the visible surface's position, normal and albedo in the region frame and how strongly the
+current illumination lights it (``data.geometry``); the photograph alone leaves the network to
+infer the room's layout from its light, which a network trained on a few hundred rooms cannot.
 
 Shapes:
-    images (B, H, W, 3) or (B, 3, H, W), clipped (B, H, W) bool or None
-    -> position (B, 2) in meters, posture logits (B, 6).
+    images (B, H, W, 3) or (B, 3, H, W), clipped (B, H, W) bool or None,
+    geometry (B, 10, H, W) or None -> position (B, 2) in meters, posture logits (B, 6).
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 
+from ..data.geometry import GEOMETRY_CHANNELS
 from .ien import mlp
 from .resnet import backbone
 
@@ -47,6 +52,8 @@ class NLOSNetConfig:
     its empty-room photograph: exposure- and spot-invariant, but keeps how bright the person is)."""
     clip_flag: bool = True
     """Append the camera's clip flag (1 where the pixel saturated) as an input channel."""
+    geometry: bool = False
+    """Append the room's per-pixel geometry and the spot's lit fraction (``data.geometry``, 10 channels)."""
 
 
 def with_coordinates(x: torch.Tensor) -> torch.Tensor:
@@ -73,8 +80,8 @@ class NLOSNet(nn.Module):
     def __init__(self, cfg: NLOSNetConfig | None = None):
         super().__init__()
         self.cfg = cfg = cfg or NLOSNetConfig()
-        self.backbone = backbone(cfg.backbone, 3 + 2 * cfg.coord_channels + cfg.clip_flag, cfg.stem,
-                                 cfg.pool_grid)
+        channels = 3 + 2 * cfg.coord_channels + cfg.clip_flag + GEOMETRY_CHANNELS * cfg.geometry
+        self.backbone = backbone(cfg.backbone, channels, cfg.stem, cfg.pool_grid)
         h, f = cfg.head_hidden, self.backbone.out_features
         self.position_head = mlp([f, h, h, h, 2])
         self.posture_head = mlp([f, h, h, h, cfg.postures])
@@ -93,13 +100,23 @@ class NLOSNet(nn.Module):
     def reads_clip_flag(self) -> bool:
         return self.cfg.clip_flag
 
+    @property
+    def reads_geometry(self) -> bool:
+        return self.cfg.geometry
+
     per_image_norm = True
     """Divide each image by its RMS (off when the registry's wrapper scales by the background)."""
 
-    def forward(self, images: torch.Tensor, clipped: torch.Tensor | None = None):
+    def forward(self, images: torch.Tensor, clipped: torch.Tensor | None = None,
+                geometry: torch.Tensor | None = None):
         x = exposure_normalized(images) if self.per_image_norm else self.channels_first(images)
         if self.cfg.clip_flag:  # no flag given: nothing clipped (noise-free images)
             flag = torch.zeros_like(x[:, :1]) if clipped is None else clipped.unsqueeze(1).to(x.dtype)
             x = torch.cat([x, flag], dim=1)
+        if self.cfg.geometry:
+            if geometry is None or geometry.shape != (x.shape[0], GEOMETRY_CHANNELS, *x.shape[2:]):
+                raise ValueError(f"geometry-aware network: expected geometry ({x.shape[0]}, {GEOMETRY_CHANNELS}, "
+                                 f"{x.shape[2]}, {x.shape[3]}), got {None if geometry is None else tuple(geometry.shape)}")
+            x = torch.cat([x, geometry.to(x.dtype)], dim=1)
         f = self.backbone(with_coordinates(x) if self.cfg.coord_channels else x)
         return self.position_head(f), self.posture_head(f)

@@ -37,8 +37,8 @@ class PositionScaled(nn.Module):
     network with ``reads_clip_flag`` also gets the flag as an input channel.
 
     Shapes:
-        images (B, H, W, 3), background (B, H, W, 3) or (H, W, 3), clipped (B, H, W) bool
-        -> position (B, 2) m, logits (B, 6).
+        images (B, H, W, 3), background (B, H, W, 3) or (H, W, 3), clipped (B, H, W) bool,
+        geometry (B, 10, H, W) (networks with ``reads_geometry``) -> position (B, 2) m, logits (B, 6).
     """
 
     def __init__(self, net: nn.Module, subtract: bool = False, normalize: str = "image"):
@@ -57,7 +57,7 @@ class PositionScaled(nn.Module):
         self.position_std.copy_(targets.std(0).clamp(min=0.05) if len(targets) > 1 else torch.ones(2))
 
     def forward(self, images: torch.Tensor, background: torch.Tensor | None = None,
-                clipped: torch.Tensor | None = None):
+                clipped: torch.Tensor | None = None, geometry: torch.Tensor | None = None):
         if self.subtract:
             if background is None:
                 raise ValueError("this network reads photograph - empty-room photograph: pass the background")
@@ -67,7 +67,11 @@ class PositionScaled(nn.Module):
             if self.by_background:  # 1e3: the person's light is ~1e-3 of the room's
                 rms = background.pow(2).mean(dim=(-3, -2, -1), keepdim=True).sqrt().clamp(min=1e-20)
                 images = 1e3 * images / rms
-        pos, logits = self.net(images, clipped) if getattr(self.net, "reads_clip_flag", False) else self.net(images)
+        extra = {"geometry": geometry} if getattr(self.net, "reads_geometry", False) else {}
+        if getattr(self.net, "reads_clip_flag", False):
+            pos, logits = self.net(images, clipped, **extra)
+        else:
+            pos, logits = self.net(images, **extra)
         return self.position_mean + self.position_std * pos, logits
 
 
@@ -76,4 +80,6 @@ def build_network(arch: str, cfg: NLOSNetConfig | None = None) -> PositionScaled
     if arch not in NETWORKS:
         raise NlosError(f"network: unknown architecture '{arch}' (choose from {', '.join(NETWORKS)})")
     cfg = cfg or NLOSNetConfig()
+    if cfg.geometry and arch != "resnet18":
+        raise NlosError(f"network: only resnet18 reads the room's geometry (net.geometry), not '{arch}'")
     return PositionScaled(NETWORKS[arch](cfg), subtract=cfg.background_subtract, normalize=cfg.normalize)

@@ -62,6 +62,9 @@ class TrainConfig:
     """Stop after this many validation passes without improvement (0: never stop early)."""
     lr_schedule: str = "constant"
     """'constant' or 'cosine' (from lr down to lr / 100 over the network's steps)."""
+    spot_augment: bool = False
+    """Training only: each room lit by one of its stored, landed spots drawn afresh every step (for a
+    network that reads the lit channel, ``net.geometry``); validation and tests use the policy's spot."""
     ien_features: list[str] = field(default_factory=lambda: ["normals"])
     """Extra IEN vertex features besides coordinates: 'normals'."""
     ien: IENConfig = field(default_factory=IENConfig)

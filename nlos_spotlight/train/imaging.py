@@ -56,6 +56,20 @@ def _check_stored(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor) -> None:
                         "(spots.json); use full-transport samples (data.tensors.transport_samples)")
 
 
+def capture(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor | None, mode: str, sensor: SensorConfig,
+            generator: torch.Generator | None, noise: bool, net_cfg) -> Photographs:
+    """What the network ``net_cfg`` (``NLOSNetConfig``) reads for samples ``idx`` of room ``s`` under
+    the illumination (y, mode): photographs (``form_images`` + ``photographs``) and, for a
+    geometry-aware network, the room's geometry channels under that light."""
+    images, person_free = form_images(s, idx, y, mode)
+    ph = photographs(images, person_free, sensor, generator, noise, net_cfg.background_subtract)
+    if getattr(net_cfg, "geometry", False):
+        from ..data.geometry import geometry_input
+
+        ph.geometry = geometry_input(s, person_free - s.ambient, len(idx), projector_on=mode != "ambient")
+    return ph
+
+
 def capture_sensor(image_shape: tuple[int, int], overrides: dict | None = None) -> SensorConfig:
     """The sensor of a dataset's photographs: the defaults (procedural scenes carry no ``sensor``
     overrides), the run's capture settings ``overrides`` (e.g. ``burst_frames``), at (H, W)."""
@@ -89,6 +103,8 @@ class Photographs:
     """(B, H, W, 3) empty-room photographs under the same illumination and settings, or None."""
     clipped: torch.Tensor | None
     """(B, H, W) bool: the pixel clipped in the photograph or the background (None without noise)."""
+    geometry: torch.Tensor | None = None
+    """(B, 10, H, W) what each pixel shows (``data.geometry``), for networks that read it; else None."""
 
 
 def photographs(images: torch.Tensor, person_free: torch.Tensor, cfg: SensorConfig, generator: torch.Generator | None,

@@ -31,7 +31,7 @@ from ..models.ien import IEN
 from ..models.registry import build_network
 from ..render.sensor import SensorConfig
 from .config import TrainConfig
-from .imaging import capture_sensor, form_images, photographs
+from .imaging import capture, capture_sensor
 from ..data.tensors import SceneTensors, load_split, room_samples
 
 
@@ -186,6 +186,8 @@ class Trainer:
 
     def illuminations(self, scenes: list[SceneTensors], train: bool) -> list[tuple]:
         """Per scene (spot vector y (T,) or None, mode, IEN logits or None)."""
+        if train and self.cfg.spot_augment and not self.in_spot_stage:
+            return [(self.random_stored_spot(s), "spot", None) for s in scenes]
         if self.fixed is not None:
             fixed = [self.fixed[self.scene_index(s)] for s in scenes]
             return [(ill.spot_vector(len(s.faces), self.device), ill.mode, None) for s, ill in zip(scenes, fixed)]
@@ -197,6 +199,13 @@ class Trainer:
                 y = F.one_hot(logits.masked_fill(~s.landed, float("-inf")).argmax(), len(logits)).float()
             out.append((y, "spot", logits))
         return out
+
+    def random_stored_spot(self, s: SceneTensors) -> torch.Tensor:
+        """One-hot y (T,) on a landed candidate whose light every sample of ``s`` holds, uniformly."""
+        ok = s.landed if s.stored is None else s.landed & s.stored
+        cand = torch.nonzero(ok).flatten()
+        pick = cand[torch.randint(len(cand), (1,), generator=self.gen, device=self.device)]
+        return F.one_hot(pick[0], len(s.landed)).float()
 
     def spot_loss(self, s: SceneTensors, logits: torch.Tensor | None) -> torch.Tensor:
         """Auxiliary loss: cross-entropy of the IEN's spot distribution to q = softmax(SNR / max / snr_tau).
@@ -229,12 +238,10 @@ class Trainer:
         ills = self.illuminations(scenes, train)
         photos = []
         for (s, idx), (y, mode, _) in zip(parts, ills):
-            img, person_free = form_images(s, idx, y, mode)
-            photos.append(photographs(img, person_free, self.sensor, self.gen, self.cfg.sensor_noise,
-                                      self.cfg.net.background_subtract))
+            photos.append(capture(s, idx, y, mode, self.sensor, self.gen, self.cfg.sensor_noise, self.cfg.net))
         cat = lambda name: torch.cat([getattr(p, name) for p in photos]) if getattr(photos[0], name) is not None \
             else None
-        pos, post = self.net_ddp(cat("images"), cat("background"), cat("clipped"))
+        pos, post = self.net_ddp(cat("images"), cat("background"), cat("clipped"), cat("geometry"))
         target = torch.cat([s.target[idx] for s, idx in parts])
         posture = torch.cat([s.posture[idx] for s, idx in parts])
         pos_loss = F.mse_loss(pos, target)
@@ -301,10 +308,8 @@ class Trainer:
                 (y, mode, _), = self.illuminations([s], train=False)
                 for a in range(0, v.num_samples, batch):
                     idx = torch.arange(a, min(a + batch, v.num_samples), device=self.device)
-                    img, free = form_images(v, idx, y, mode)
-                    ph = photographs(img, free, self.sensor, gen, self.cfg.sensor_noise,
-                                     self.cfg.net.background_subtract)
-                    pos, post = self.net(ph.images, ph.background, ph.clipped)
+                    ph = capture(v, idx, y, mode, self.sensor, gen, self.cfg.sensor_noise, self.cfg.net)
+                    pos, post = self.net(ph.images, ph.background, ph.clipped, ph.geometry)
                     loss = self.cfg.position_weight * F.mse_loss(pos, v.target[idx], reduction="sum") / 2 \
                         + self.cfg.posture_weight * F.cross_entropy(post, v.posture[idx], reduction="sum")
                     tot["loss"] += float(loss)
@@ -367,6 +372,9 @@ def check_config(cfg: TrainConfig) -> None:
         raise NlosError(f"config: lr_schedule must be 'constant' or 'cosine', got {cfg.lr_schedule!r}")
     if cfg.spot_steps > 0 and cfg.policy != "ien":
         raise NlosError(f"config: spot_steps (two-stage training) trains the IEN; policy is '{cfg.policy}'")
+    if cfg.spot_augment and cfg.policy == "ien" and cfg.spot_steps == 0:
+        raise NlosError("config: spot_augment lights training rooms by random stored spots, so the IEN gets no "
+                        "task gradient: use a fixed policy or two-stage training (spot_steps > 0)")
 
 
 def split_validation(s: SceneTensors, every: int) -> tuple[SceneTensors, SceneTensors | None]:

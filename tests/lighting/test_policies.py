@@ -8,9 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from nlos_spotlight.data.config import DatasetConfig
 from nlos_spotlight.data.flash import effective_solid_angle, flash_projector, half_diagonal_fov_deg, total_flux
-from nlos_spotlight.data.generate import generate
 from nlos_spotlight.errors import NlosError
 from nlos_spotlight.lighting import POLICIES, Illumination
 from nlos_spotlight.lighting.adaptive import AdaptiveConfig, adaptive_scores
@@ -25,17 +23,7 @@ from nlos_spotlight.scene import load_scene
 from nlos_spotlight.scene.builders import quad
 from nlos_spotlight.scene.format import Camera, HiddenRegion, Material, Projector, Scene, Shape
 from nlos_spotlight.train.imaging import form_images
-from nlos_spotlight.data.tensors import load_scene_tensors
 
-
-
-@pytest.fixture(scope="module")
-def micro_scene(micro_config, tmp_path_factory):
-    """The test scene of the micro dataset: its directory and its tensors."""
-    out = tmp_path_factory.mktemp("micro")
-    generate(DatasetConfig(**micro_config), out, progress=False)
-    scene_dir = next((out / "scenes").glob("test-*"))
-    return scene_dir, load_scene_tensors(scene_dir, [])
 
 
 # ----------------------------------------------------------------------------------------- SNR

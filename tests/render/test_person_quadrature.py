@@ -102,22 +102,22 @@ def light(r, body, albedo, t, n, quadrature, batch=6000) -> torch.Tensor:
 
 
 def test_person_light_within_goal_at_dataset_settings(room_and_body):
-    """The paper preset's bodies (4000 samples) within the 0.5% goal of a 4x finer quadrature; the
-    small preset's (1500, one a face: the speed target's choice) within its documented 2%."""
+    """The bodies of the result presets (small, paper: the faces rule at 4000) within the 0.5% goal
+    of a 4x finer quadrature; the learning-curve datasets' 1500 (one a face) within their
+    documented 1% and farther than 4000 (the rule converges)."""
     from nlos_spotlight.data.config import PRESETS
 
     cfg, r, body, albedo, t = room_and_body
-    paper = PRESETS["paper"]
-    assert cfg.person_quadrature == paper.person_quadrature == "faces"
-    ref = light(r, body, albedo, t, 4 * paper.person_samples, "faces")
+    results = [PRESETS["small"], PRESETS["paper"]]
+    assert all(p.person_quadrature == "faces" and p.person_samples == cfg.person_samples for p in results)
+    ref = light(r, body, albedo, t, 4 * cfg.person_samples, "faces")
     assert ref.norm() > 0
-    errs = []
-    for preset, bound in ((paper, GOAL), (cfg, 0.02)):
-        err = float((light(r, body, albedo, t, preset.person_samples, "faces") - ref).norm() / ref.norm())
-        print(f"faces rule at {preset.person_samples}: {err:.3%} from a 4x finer quadrature")
-        assert err < bound, f"faces rule at {preset.person_samples} samples: {err:.2%} from converged"
-        errs.append(err)
-    assert errs[0] < errs[1]  # the reference resolves what one sample a face misses
+    errs = {}
+    for n, bound in ((cfg.person_samples, GOAL), (1500, 0.01)):
+        errs[n] = err = float((light(r, body, albedo, t, n, "faces") - ref).norm() / ref.norm())
+        print(f"faces rule at {n}: {err:.3%} from a 4x finer quadrature")
+        assert err < bound, f"faces rule at {n} samples: {err:.2%} from converged"
+    assert errs[cfg.person_samples] < errs[1500]
 
 
 def test_closed_body_wound_inward_gets_the_same_light():
