@@ -101,25 +101,37 @@ def seen_config(rooms: int, seed: int = 0, noise: bool = True, policy: str = "or
 
 
 def score(tr: Trainer, rooms: list[RoomSplit], noise: bool, seed: int = 0, batch: int = 128) -> dict:
-    """Predictions of a trained run on its rooms' test people, each room under the run's spot.
+    """Predictions of a trained run on its rooms' test people, each room under the run's spot
+    (:func:`score_rooms`)."""
+    lights = []
+    for s in tr.scenes:
+        (y, mode, _), = tr.illuminations([s], train=False)
+        lights.append((y, mode))
+    return score_rooms(tr.net, tr.cfg.net, tr.sensor, [r.test for r in rooms], lights, noise, seed, batch)
+
+
+def score_rooms(net, net_cfg: NLOSNetConfig, sensor, rooms: list[SceneTensors], lights: list[tuple], noise: bool,
+                seed: int = 0, batch: int = 128) -> dict:
+    """Predictions of ``net`` on every sample of ``rooms``, room i under ``lights[i]`` = (spot vector
+    y (T,) or None, mode), with the same sensor noise for every run (seed 20,000 + ``seed``).
 
     Besides the scores, ``per_person`` holds arrays over all test people (room, true and predicted
     position (N, 2) in the region frame, true and predicted posture) and ``photos`` the first test
     person of each posture as photographed (image and empty-room image (6, H, W, 3), NaN where a
     posture has no test person; first room)."""
-    tr.net.eval()
-    gen = torch.Generator(device=tr.device).manual_seed(20_000 + seed)  # the same noise for every run
+    net.eval()
+    device = next(net.parameters()).device
+    gen = torch.Generator(device=device).manual_seed(20_000 + seed)  # the same noise for every run
     cols = {k: [] for k in ("room", "true_xy", "pred_xy", "true_posture", "pred_posture")}
     spots, photos = [], None
     with torch.no_grad():
-        for i, (s, room) in enumerate(zip(tr.scenes, rooms)):
-            (y, mode, _), = tr.illuminations([s], train=False)
-            spots.append(int(y.argmax()) if y is not None else -1)
-            t = room.test.to(tr.device)
+        for i, (t, (y, mode)) in enumerate(zip(rooms, lights)):
+            spots.append(int(y.argmax()) if y is not None and mode == "spot" else -1)
+            t = t.to(device)
             for a in range(0, t.num_samples, batch):
-                idx = torch.arange(a, min(a + batch, t.num_samples), device=tr.device)
-                ph = capture(t, idx, y, mode, tr.sensor, gen, noise, tr.cfg.net)
-                pos, logits = tr.net(ph.images, ph.background, ph.clipped, ph.geometry)
+                idx = torch.arange(a, min(a + batch, t.num_samples), device=device)
+                ph = capture(t, idx, y, mode, sensor, gen, noise, net_cfg)
+                pos, logits = net(ph.images, ph.background, ph.clipped, ph.geometry)
                 for k, v in (("room", torch.full_like(idx, i)), ("true_xy", t.target[idx]), ("pred_xy", pos),
                              ("true_posture", t.posture[idx]), ("pred_posture", logits.argmax(1))):
                     cols[k].append(v.cpu().numpy())
@@ -228,4 +240,5 @@ def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs
     return result
 
 
-__all__ = ["GROUPS", "RoomSplit", "SeenResult", "mean_answer_cm", "run_seen", "score", "seen_config", "split_room"]
+__all__ = ["GROUPS", "RoomSplit", "SeenResult", "mean_answer_cm", "run_seen", "score", "score_rooms", "seen_config",
+           "split_room"]

@@ -111,6 +111,7 @@ class Trainer:
         self.base_lrs = [g["lr"] for g in self.opt.param_groups]
         self.gen = torch.Generator(device=self.device).manual_seed(cfg.seed * 1000 + self.rank)
         self.step = 0
+        self.val_lights = None  # per validation scene Illumination: validation rooms of their own
 
     @staticmethod
     def device_for(cfg: TrainConfig) -> torch.device:
@@ -297,15 +298,20 @@ class Trainer:
 
     def validate(self, batch: int = 64) -> dict:
         """Mean loss, error and accuracy on the validation people of the training rooms, each room under
-        the spot the run would use there, with the same sensor noise at every pass."""
+        the spot the run would use there, with the same sensor noise at every pass. With
+        ``val_lights`` (one Illumination per validation scene) the validation scenes are rooms of
+        their own (unseen-room validation), each under its given light."""
         self.ien.eval()
         self.net.eval()
         gen = torch.Generator(device=self.device).manual_seed(self.cfg.seed * 1000 + 999)
         tot = {"loss": 0.0, "err_cm": 0.0, "acc": 0.0}
         n = 0
         with torch.no_grad():
-            for s, v in zip(self.scenes, self.val_scenes):
-                (y, mode, _), = self.illuminations([s], train=False)
+            for i, v in enumerate(self.val_scenes):
+                if self.val_lights is not None:
+                    y, mode = self.val_lights[i].spot_vector(len(v.faces), self.device), self.val_lights[i].mode
+                else:
+                    (y, mode, _), = self.illuminations([self.scenes[i]], train=False)
                 for a in range(0, v.num_samples, batch):
                     idx = torch.arange(a, min(a + batch, v.num_samples), device=self.device)
                     ph = capture(v, idx, y, mode, self.sensor, gen, self.cfg.sensor_noise, self.cfg.net)
