@@ -121,7 +121,9 @@ def validate(cfg: DatasetConfig, where: str) -> None:
         raise NlosError(f"{where}: trajectory_frames must be at least 1, got {cfg.trajectory_frames}")
     if not 0 < cfg.frame_rate_hz < 1e4:
         raise NlosError(f"{where}: frame_rate_hz must be a positive number below 10000, got {cfg.frame_rate_hz}")
-    for k in ("train_scenes", "samples_per_scene", "resolution", "los_vertices", "spot_samples",
+    if cfg.train_scenes < 0 or cfg.num_scenes < 1:  # 0 training rooms: a test set for models trained elsewhere
+        raise NlosError(f"{where}: train_scenes must be at least 0 and the dataset hold at least one scene")
+    for k in ("samples_per_scene", "resolution", "los_vertices", "spot_samples",
               "person_samples", "pixel_samples", "transport_pixel_samples", "body_faces"):
         if getattr(cfg, k) < 1:
             raise NlosError(f"{where}: {k} must be at least 1")

@@ -164,10 +164,14 @@ def test_bad_values_are_refused_before_anything_is_written(tmp_path, capsys):
     bad = tmp_path / "bad.yaml"
     for text, field in (("val_scenes: -1", "val_scenes"), ("transport_rank: -1", "transport_rank"),
                         ("trajectory_frames: -3", "trajectory_frames"), ("frame_rate_hz: 0", "frame_rate_hz"),
-                        ("trajectories_per_test_scene: -1", "trajectories_per_test_scene")):
+                        ("trajectories_per_test_scene: -1", "trajectories_per_test_scene"),
+                        ("train_scenes: -1", "train_scenes"),
+                        ("train_scenes: 0\nval_scenes: 0\ntest_scenes: 0", "at least one scene")):
         bad.write_text(text + "\n")
         with pytest.raises(NlosError, match=field):
             load_config(str(bad))
+    bad.write_text("train_scenes: 0\nval_scenes: 0\ntest_scenes: 2\n")  # a test set for models trained elsewhere
+    assert load_config(str(bad)).num_scenes == 2
     (tmp_path / "f").write_text("x")
     assert main(["generate", "tiny", "--out", str(tmp_path / "f")]) == 2
     assert "is a file" in capsys.readouterr().err
