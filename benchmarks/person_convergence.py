@@ -38,7 +38,7 @@ import torch
 
 from nlos_spotlight.data.config import PRESETS
 from nlos_spotlight.data.flash import FLASH_SPOT_SAMPLES, flash_scene
-from nlos_spotlight.data.scene_builder import los_mesh
+from nlos_spotlight.scene.los import los_mesh
 from nlos_spotlight.render.person import Person, face_quadrature
 from nlos_spotlight.render.surface import StaticSurfaces
 from nlos_spotlight.render.transport import Renderer, RenderSettings
@@ -54,7 +54,8 @@ BATCH = 4000
 def renderers(cfg, seed: int, max_spots: int):
     """The preset's room, spot renderer, flash renderer and hidden-region floor height."""
     scene = generate_room(seed, RoomConfig(resolution=cfg.resolution)).scene
-    los = los_mesh(StaticSurfaces(scene), scene.camera, cfg.los_vertices)
+    surf = StaticSurfaces(scene)
+    los = los_mesh(surf.mesh, surf.engine, scene.camera, cfg.los_vertices)
     aim = los.centroids()
     if 0 < max_spots < len(aim):
         aim = aim[np.linspace(0, len(aim) - 1, max_spots).round().astype(int)]

@@ -10,7 +10,7 @@ Pipeline (the inference half of DESIGN section 8, on a user's room):
    ``file_to_world`` and the spot in the file's frame too. The camera and projector come from
    flags or from :func:`default_camera` (derived from the mesh bounds, printed so the user can
    reproduce or override it).
-2. **LOS mesh.** As in dataset generation (``data.scene_builder.los_mesh``): the faces the camera
+2. **LOS mesh.** As in dataset generation (one function, ``scene.los.los_mesh``): the faces the camera
    sees (2 x 2 rays per pixel, at least :data:`VISIBILITY_WIDTH` pixels across so small faces of a
    fine scan are found), cleaned, quadric-decimated to the target vertex count (``--target-vertices``,
    else the run's training dataset's ``los_vertices`` when its config is found, else
@@ -33,7 +33,6 @@ Pipeline (the inference half of DESIGN section 8, on a user's room):
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 from dataclasses import dataclass, field
@@ -215,24 +214,10 @@ def load_setup(path: str | Path, camera_position=None, camera_look_at=None, proj
 
 
 def visible_mesh(setup: SpotlightSetup, target_vertices: int) -> TriMesh:
-    """The LOS mesh: faces the camera sees, cleaned, decimated to about ``target_vertices``."""
-    from ..scene.clean import clean_mesh
-    from ..scene.decimate import decimate
+    """The LOS mesh (``scene.los.los_mesh``), visible faces found at least :data:`VISIBILITY_WIDTH` rays across."""
+    from ..scene.los import los_mesh
 
-    cam = setup.camera
-    if cam.width < VISIBILITY_WIDTH:
-        cam = dataclasses.replace(cam, width=VISIBILITY_WIDTH,
-                                  height=max(1, round(VISIBILITY_WIDTH * cam.height / cam.width)))
-    dirs, origin = pixel_rays(cam, 2)
-    flat = dirs.reshape(-1, 3)
-    h = setup.engine.first_hit(np.broadcast_to(origin, flat.shape), flat)
-    faces = np.unique(h.face[h.hit])
-    if len(faces) < 2:
-        raise NlosError(f"the camera at {np.round(cam.position, 3).tolist()} looking at "
-                        f"{np.round(cam.look_at, 3).tolist()} sees {'no' if not len(faces) else 'one'} "
-                        "face of the mesh")
-    sub = clean_mesh(TriMesh(setup.mesh.vertices, setup.mesh.faces[faces]))
-    return decimate(sub, int(target_vertices)) if len(sub.vertices) > target_vertices else sub
+    return los_mesh(setup.mesh, setup.engine, setup.camera, target_vertices, min_width=VISIBILITY_WIDTH)
 
 
 def training_los_vertices(models: TrainedModels) -> int | None:

@@ -22,30 +22,17 @@ import numpy as np
 import torch
 
 from ..errors import NlosError
-from ..render.camera import camera_frame, pixel_rays
+from ..render.camera import camera_frame
 from ..render.person import Person
 from ..render.surface import StaticSurfaces
 from ..render.transport import Renderer, RenderSettings
 from ..scene.format import TriMesh
+from ..scene.los import los_mesh
 from ..scene.io import save_scene
 from .config import DatasetConfig
 from .flash import FLASH_SPOT_SAMPLES, flash_scene
 from .store import atomic_json, atomic_npz, f16_encode, file_digest
 from .trajectories import walking_trajectory
-
-
-def los_mesh(surfaces: StaticSurfaces, camera, target_vertices: int) -> TriMesh:
-    """The camera-visible static faces (what a scan from the camera side holds), cleaned and decimated."""
-    from ..scene.clean import clean_mesh
-    from ..scene.decimate import decimate
-
-    dirs, origin = pixel_rays(camera, 2)
-    flat = dirs.reshape(-1, 3)
-    hit, surf = surfaces.trace(np.broadcast_to(origin, flat.shape), flat)
-    faces = np.unique(surf.face)
-    m = surfaces.mesh
-    sub = clean_mesh(TriMesh(m.vertices, m.faces[faces]))
-    return decimate(sub, target_vertices) if len(sub.vertices) > target_vertices else sub
 
 
 def low_rank(f: torch.Tensor, rank: int) -> tuple[np.ndarray, np.ndarray, float]:
@@ -85,7 +72,7 @@ class SceneBuilder:
         if not (self.dir / "scene.json").exists():  # written last: its meshes are complete (parts share them)
             save_scene(scene, self.dir)
         surfaces = StaticSurfaces(scene)
-        los = los_mesh(surfaces, scene.camera, self.cfg.los_vertices)
+        los = los_mesh(surfaces.mesh, surfaces.engine, scene.camera, self.cfg.los_vertices)
         settings = RenderSettings(pixel_samples=self.cfg.pixel_samples,
                                   transport_pixel_samples=self.cfg.transport_pixel_samples,
                                   spot_samples=self.cfg.spot_samples, person_samples=self.cfg.person_samples,

@@ -45,13 +45,14 @@ def dense_los_mesh(scene_dir: Path) -> TriMesh:
     """The camera-visible static faces of a dataset scene, subdivided and decimated to ~10k vertices."""
     import trimesh
 
-    from ..data.scene_builder import los_mesh
+    from ..scene.los import los_mesh
     from ..render.surface import StaticSurfaces
     from ..scene import load_scene
     from ..scene.decimate import decimate
 
     scene = load_scene(scene_dir)
-    m = los_mesh(StaticSurfaces(scene), scene.camera, 10**9)
+    surf = StaticSurfaces(scene)
+    m = los_mesh(surf.mesh, surf.engine, scene.camera, 10**9)
     v, f = m.vertices, m.faces
     while len(v) < DENSE_RANGE[0]:
         v, f = trimesh.remesh.subdivide(v, f)

@@ -244,14 +244,15 @@ def _print_room(rec: dict, console) -> None:
 
 def _ien_spot(cfg: FitConfig, room_dir: Path) -> list[int]:
     """The face a trained run's IEN picks on the room's candidates (computed like the dataset's)."""
-    from ..data.scene_builder import los_mesh
+    from ..scene.los import los_mesh
     from ..render.surface import StaticSurfaces
     from ..scene.io import load_scene
     from .spot import check_ien_run, ien_face
 
     models = check_ien_run(cfg.checkpoint)
     scene = load_scene(room_dir)
-    los = los_mesh(StaticSurfaces(scene), scene.camera, cfg.los_vertices)
+    surf = StaticSurfaces(scene)
+    los = los_mesh(surf.mesh, surf.engine, scene.camera, cfg.los_vertices)
     return [ien_face(models, scene, los)]
 
 

@@ -174,7 +174,7 @@ def test_ien_policy_uses_the_checkpoints_choice(toy_scene, room_dir, tmp_path):
     stored for the image samples, and the one the network is trained and scored under."""
     import torch
 
-    from nlos_spotlight.data.scene_builder import los_mesh
+    from nlos_spotlight.scene.los import los_mesh
     from nlos_spotlight.fit.spot import ien_face
     from nlos_spotlight.render.surface import StaticSurfaces
     from nlos_spotlight.scene.io import load_scene
@@ -191,7 +191,8 @@ def test_ien_policy_uses_the_checkpoints_choice(toy_scene, room_dir, tmp_path):
     cfg = dataclasses.replace(TINY, people=12, heldout=3, policy="ien", checkpoint=str(tmp_path / "final.pt"))
     report = fit_room(str(room_dir), tmp_path / "m", cfg, {}, progress=False)
     scene = load_scene(tmp_path / "m" / "room")
-    los = los_mesh(StaticSurfaces(scene), scene.camera, cfg.los_vertices)
+    surf = StaticSurfaces(scene)
+    los = los_mesh(surf.mesh, surf.engine, scene.camera, cfg.los_vertices)
     face = ien_face(load_trained(tmp_path / "final.pt"), scene, los)
     stored = json.loads(next((tmp_path / "m" / "data" / "scenes").iterdir()).joinpath("spots.json").read_text())
     assert report["spot"]["face"] == face and face in stored["spots"]

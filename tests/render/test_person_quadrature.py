@@ -68,7 +68,7 @@ def test_unknown_quadrature_is_refused():
 @pytest.fixture(scope="module")
 def room_and_body(tmp_path_factory):
     """The small preset's renderer on generated room 0 (every 6th candidate) and a hands_45 body there."""
-    from nlos_spotlight.data.scene_builder import los_mesh
+    from nlos_spotlight.scene.los import los_mesh
     from nlos_spotlight.render.surface import StaticSurfaces
     from nlos_spotlight.render.transport import Renderer, RenderSettings
     from nlos_spotlight.world.body import BodyCache, posed_body, sample_body_params
@@ -78,7 +78,8 @@ def room_and_body(tmp_path_factory):
     torch.set_num_threads(1)  # as dataset generation runs
     cfg = PRESETS["small"]
     scene = generate_room(0, RoomConfig(resolution=cfg.resolution)).scene
-    los = los_mesh(StaticSurfaces(scene), scene.camera, cfg.los_vertices)
+    surf = StaticSurfaces(scene)
+    los = los_mesh(surf.mesh, surf.engine, scene.camera, cfg.los_vertices)
     settings = RenderSettings(pixel_samples=cfg.pixel_samples, transport_pixel_samples=cfg.transport_pixel_samples,
                               spot_samples=cfg.spot_samples, person_samples=cfg.person_samples, device="cpu")
     r = Renderer(scene, settings, aim_points=los.centroids()[::6])
