@@ -42,6 +42,7 @@ import numpy as np
 import torch
 
 from ..errors import NlosError
+from ..lighting.learned import require_learned
 from ..scene.scan import load_scan_z_up
 from ..render.camera import camera_frame, pixel_rays
 from ..render.rays import RayEngine
@@ -412,9 +413,7 @@ class SpotlightResult:
 def spotlight(models: TrainedModels, setup: SpotlightSetup, target_vertices: int | None = None,
               top_k: int = 5) -> SpotlightResult:
     """Run the IEN on ``setup`` and aim the projector at its most probable reachable face."""
-    if models.config.policy != "ien":
-        raise NlosError(f"{models.path}: this run used the fixed '{models.config.policy}' spot policy, so its IEN "
-                        "was never trained; use a run trained with policy 'ien'")
+    require_learned(models)
     if top_k < 1:
         raise NlosError(f"--top-k: expected a positive count, got {top_k}")
     if target_vertices is not None:

@@ -14,7 +14,8 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from ..lighting import POLICIES, Illumination, policy_rng
+from ..lighting import Illumination, policy_rng
+from ..lighting.learned import policy_named
 from ..train.checkpoint import TrainedModels
 from ..train.imaging import capture, capture_sensor
 from ..data.tensors import SceneTensors
@@ -58,23 +59,14 @@ class Predictions:
                 "probs": np.array(self.probs).reshape(-1, 6), "trajectory": np.array(self.trajectory).reshape(-1, 2)}
 
 
-def ien_illumination(models: TrainedModels, s: SceneTensors) -> Illumination:
-    """The IEN's choice at inference: the most probable face among those whose spot lands."""
-    with torch.no_grad():
-        logits = models.ien(s.x, s.edge_index, s.faces).masked_fill(~s.landed, float("-inf"))
-    return Illumination("spot", int(logits.argmax()))
-
-
 def illumination_for(models: TrainedModels, s: SceneTensors, scene_index: int, seed: int,
                      seen: bool = False) -> Illumination:
     """The method's illumination of scene ``s``. In a training room (``seen``, ``scene_index`` its
     index in the train split) a fixed policy keeps the spot it was trained with (``train.loop``'s
     draw), as a user would; in a new room the Random policy draws afresh."""
-    policy = models.config.policy
-    if policy == "ien":
-        return ien_illumination(models, s)
+    policy = policy_named(models.config.policy, models.ien)
     rng = policy_rng(models.config.seed, scene_index) if seen else policy_rng(seed, scene_index, new_room=True)
-    return POLICIES[policy](s, Path(s.scene_dir), rng)
+    return policy(s, Path(s.scene_dir), rng)
 
 
 def predict_scene(models: TrainedModels, s: SceneTensors, ill: Illumination, generator: torch.Generator,

@@ -24,7 +24,8 @@ import numpy as np
 import torch
 
 from ..data.tensors import SceneTensors
-from ..lighting import POLICIES, Illumination, policy_rng
+from ..lighting import Illumination, policy_rng
+from ..lighting.learned import policy_named
 from ..train.config import TrainConfig
 from ..train.loop import Trainer, _validation_pass
 from .seen import score_rooms
@@ -55,18 +56,10 @@ class UnseenResult:
 
 
 def room_lights(rooms: list[SceneTensors], policy: str, seed: int, ien=None) -> list[Illumination]:
-    """Each room's illumination under ``policy``: a fixed one of ``lighting.POLICIES`` drawing with the
-    new-room key ``policy_rng(seed, i, new_room=True)``, or 'ien' (``ien`` a trained IEN's choice
-    among the landed candidates; rooms holding image samples restrict it to their stored spots)."""
-    if policy != "ien":
-        return [POLICIES[policy](s, Path(s.scene_dir), policy_rng(seed, i, new_room=True)) for i, s in enumerate(rooms)]
-    out = []
-    with torch.no_grad():
-        for s in rooms:
-            ok = s.landed if s.stored is None else s.landed & s.stored
-            logits = ien(s.x, s.edge_index, s.faces).masked_fill(~ok, float("-inf"))
-            out.append(Illumination("spot", int(logits.argmax())))
-    return out
+    """Each room's illumination under ``policy`` (``lighting.learned.policy_named``: a fixed one draws
+    with the new-room key ``policy_rng(seed, i, new_room=True)``; 'ien' is ``ien``'s choice)."""
+    fn = policy_named(policy, ien)
+    return [fn(s, Path(s.scene_dir), policy_rng(seed, i, new_room=True)) for i, s in enumerate(rooms)]
 
 
 def as_pairs(rooms: list[SceneTensors], lights: list[Illumination]) -> list[tuple]:

@@ -9,6 +9,7 @@ import numpy as np
 import torch
 
 from ..errors import NlosError
+from ..lighting.learned import require_learned
 from ..scene.format import Scene, TriMesh
 
 
@@ -17,9 +18,7 @@ def check_ien_run(checkpoint: str):
     from ..train.checkpoint import load_trained
 
     models = load_trained(checkpoint)
-    if models.config.policy != "ien":
-        raise NlosError(f"{models.path}: this run used the fixed '{models.config.policy}' spot policy, so its IEN "
-                        "was never trained; --checkpoint needs a run trained with policy 'ien'")
+    require_learned(models)
     return models
 
 
@@ -27,9 +26,7 @@ def ien_face(models, scene: Scene, los: TriMesh) -> int:
     """The most probable landed candidate of a trained IEN on ``los`` (the room's candidates)."""
     from ..apps.spotlight import SpotlightSetup, ien_logits, projector_reach
 
-    if models.config.policy != "ien":
-        raise NlosError(f"{models.path}: this run used the fixed '{models.config.policy}' spot policy, so its IEN "
-                        "was never trained; --checkpoint needs a run trained with policy 'ien'")
+    require_learned(models)
     mesh = scene.static_mesh()[0]
     setup = SpotlightSetup(Path("room"), "scene", mesh, scene.camera, "scene", scene.projector.position, "scene")
     reach, _ = projector_reach(setup, los)

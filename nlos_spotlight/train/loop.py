@@ -42,11 +42,13 @@ def fixed_illuminations(cfg: TrainConfig, scenes: list[SceneTensors]):
     """Per-scene illumination of a fixed policy (None for the learned 'ien' policy)."""
     if cfg.policy == "ien":
         return None
-    from ..lighting import POLICIES, policy_rng
+    from ..lighting import policy_rng
+    from ..lighting.learned import policy_named
 
-    if cfg.policy not in POLICIES:
-        raise NlosError(f"config: unknown policy '{cfg.policy}' (choose from ien, {', '.join(POLICIES)})")
-    fn = POLICIES[cfg.policy]
+    try:
+        fn = policy_named(cfg.policy)
+    except NlosError as exc:
+        raise NlosError(f"config: {exc}") from None
     return [fn(s, Path(s.scene_dir), policy_rng(cfg.seed, i)) for i, s in enumerate(scenes)]
 
 
