@@ -46,7 +46,13 @@ COLUMNS = ["net", "capture", "policy", "train_rooms", "seed", "posture_accuracy"
 
 
 def load_rooms(data: Path, split: str, samples: str, limit: int = 0) -> list:
-    ids = split_ids(data, split)
+    """The split's rooms (the first ``limit``); a dataset still being generated (no manifest yet)
+    gives its finished rooms (``done.json``) in index order."""
+    if (data / "manifest.json").exists():
+        ids = split_ids_or_none(data, split) or []
+    else:
+        ids = sorted(p.name for p in (data / "scenes").glob(f"{split}-*") if (p / "done.json").exists())
+        print(f"{data}: unfinished dataset, {len(ids)} finished {split} rooms so far", flush=True)
     ids = ids[:limit] if limit else ids
     return [load_scene_tensors(data / "scenes" / sid, ["normals"], samples) for sid in ids]
 
@@ -80,7 +86,7 @@ def train_ien(args, rooms: list, out: Path):
 
 
 def scores(args, tr, cfg, test_rooms, policy: str, lights, out: Path) -> dict:
-    path = out / f"scores-{policy}.json"
+    path = out / f"scores-{policy}-{len(test_rooms)}rooms.json"
     if path.exists():
         return json.loads(path.read_text())
     res = score_rooms(tr.net, cfg.net, tr.sensor, test_rooms, as_pairs(test_rooms, lights), cfg.sensor_noise,
@@ -98,6 +104,7 @@ def main() -> None:
     ap.add_argument("--nets", default="image,geometry")
     ap.add_argument("--policies", default="oracle,adaptive,center,random", help="test-room spot policies")
     ap.add_argument("--captures", default="default", help="noise-free and/or default")
+    ap.add_argument("--test-rooms", type=int, default=0, help="score on the first N test rooms only (0: all)")
     ap.add_argument("--ien", action="store_true", help="train the IEN across rooms and score its spot too")
     ap.add_argument("--ien-steps", type=int, default=2000)
     ap.add_argument("--epochs", type=float, default=40.0, help="passes over the training people")
@@ -112,8 +119,9 @@ def main() -> None:
     sizes = [int(r) for r in args.rooms.split(",")]
     policies = [p for p in args.policies.split(",") if p]
     train_all = load_rooms(args.train, "train", "images", max(sizes))
-    val = load_rooms(args.train, "val", "images") if split_ids_or_none(args.train, "val") else []
-    test = load_rooms(args.test, "test", "transport")
+    sizes = [r for r in sizes if r <= len(train_all)] or [len(train_all)]
+    val = load_rooms(args.train, "val", "images")
+    test = load_rooms(args.test, "test", "transport", args.test_rooms)
     print(f"{len(train_all)} training rooms, {len(val)} validation rooms, {len(test)} test rooms "
           f"({sum(s.num_samples for s in test)} test people)", flush=True)
     lights = {p: room_lights(test, p, 0) for p in policies}
