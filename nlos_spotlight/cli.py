@@ -157,7 +157,12 @@ def cmd_evaluate(args: argparse.Namespace) -> None:
     methods = [m.strip() for m in args.methods.split(",")] if args.methods else None
     input_dir(args.data, "--data", "dataset directory")
     output_dir(args.out, "--out")
-    ev = run_all(Path(args.run_dir), Path(args.data), args.seeds, methods, progress=not args.quiet)
+    test_data = None
+    if args.test_data:
+        input_dir(args.test_data, "--test-data", "dataset directory")
+        test_data = Path(args.test_data)
+    ev = run_all(Path(args.run_dir), Path(args.data), args.seeds, methods, progress=not args.quiet,
+                 test_data=test_data)
     command = "nlos " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:] else "nlos evaluate"
     md = write_all(ev, Path(args.data), Path(args.run_dir), Path(args.out), command)
     console.print(f"report: {md.resolve()} (and report.html, raw.csv, summary.csv beside it)")
@@ -313,6 +318,7 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("evaluate", help="the paper's tables and figures on held-out scenes (trains the baselines)")
     e.add_argument("run_dir", help="run directory of ours (nlos train); baselines train under RUN/methods/")
     e.add_argument("--data", required=True, help="dataset directory (its test split is evaluated)")
+    e.add_argument("--test-data", help="another dataset whose test split is evaluated instead (rooms of their own)")
     e.add_argument("--out", required=True, help="report directory")
     e.add_argument("--seeds", type=int, default=1, help="training seeds per method (the run's seed, then +1, ...)")
     e.add_argument("--methods", help="comma-separated subset of methods (default: all; ours always)")

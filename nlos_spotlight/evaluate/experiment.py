@@ -48,15 +48,21 @@ class Evaluation:
     snr: dict = field(default_factory=dict)
     """method -> mean over scenes and seeds of (SNR of its spot / oracle SNR)."""
     seconds: dict[str, float] = field(default_factory=dict)
+    test_data: Path | None = None
+    """Dataset the test scenes come from (the training dataset unless ``--test-data`` named another)."""
 
 
-def run_all(run_dir: Path, data: Path, seeds: int, names: list[str] | None, progress: bool) -> Evaluation:
+def run_all(run_dir: Path, data: Path, seeds: int, names: list[str] | None, progress: bool,
+            test_data: Path | None = None) -> Evaluation:
+    """Train what is missing on ``data`` and score on the test split of ``test_data`` (default:
+    ``data``; another dataset's rooms, e.g. ``benchmarks/configs/unseen-test.yaml``)."""
     from ..console import console
 
     base = run_config(run_dir)
-    ids = split_ids(data, "test")
-    ev = Evaluation(select(names), seeds_of(base, seeds), ids)
-    scenes = [load_scene_tensors(data / "scenes" / sid, base.ien_features) for sid in ids]
+    tdata = test_data or data
+    ids = split_ids(tdata, "test")
+    ev = Evaluation(select(names), seeds_of(base, seeds), ids, test_data=tdata)
+    scenes = [load_scene_tensors(tdata / "scenes" / sid, base.ien_features) for sid in ids]
     ev.seen_ids, seen = seen_rooms(data, base)
     flash = scenes[0].flash_direct is not None
     for m in ev.methods:
@@ -82,7 +88,7 @@ def run_all(run_dir: Path, data: Path, seeds: int, names: list[str] | None, prog
     t0 = time.perf_counter()
     ev.decimation = decimation_study(run_dir, base, ev, scenes)
     ev.seconds["decimation study"] = time.perf_counter() - t0
-    ev.snr = spot_snr(ev, data)
+    ev.snr = spot_snr(ev, tdata)
     return ev
 
 

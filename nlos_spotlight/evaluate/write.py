@@ -139,6 +139,7 @@ def build(ev: Evaluation, data: Path, run_dir: Path, out: Path, command: str) ->
     names = list(res)
     b = [Block("h1", "nlos-spotlight evaluation"),
          Block("p", f"Run {run_dir}, data {data}, {len(ev.scene_ids)} held-out test scenes "
+                    + (f"of {ev.test_data} " if ev.test_data and ev.test_data != data else "") +
                     f"({', '.join(ev.scene_ids)}), training seeds {ev.seeds}. Every number is mean ± std over "
                     "seeds; images are formed from the stored light transport under each method's illumination "
                     "and pass through the sensor model (auto-exposure, shot, read and quantization noise)."),
@@ -189,7 +190,7 @@ def build(ev: Evaluation, data: Path, run_dir: Path, out: Path, command: str) ->
               Block("image", "Fig. 5: walking trajectories, ground truth, raw per-frame estimates of ours and their "
                              "Savitzky-Golay smoothing (scipy.signal.savgol_filter, order 2), mean error in the "
                              "legend.", image="fig5_tracking.png")]
-    figures.policy_figure(policy_panels(ev, data), out / "fig6_policies.png")
+    figures.policy_figure(policy_panels(ev, ev.test_data or data), out / "fig6_policies.png")
     b += [Block("h2", "Figure 6: each policy's illumination on one scene"),
           Block("image", f"Fig. 6: scene {ev.scene_ids[0]}, sample 0, noise-free. Top: the photograph (+ marks "
                          "the spot's aim point); bottom: the light the person adds.", image="fig6_policies.png")]
@@ -216,7 +217,8 @@ def write_all(ev: Evaluation, data: Path, run_dir: Path, out: Path, command: str
     write_summary(ev, out)
     blocks = build(ev, data, run_dir, out, command)
     md, _ = write_report(blocks, out, "nlos-spotlight evaluation")
-    meta = {"command": command, "run": str(run_dir), "data": str(data), "seeds": ev.seeds,
+    meta = {"command": command, "run": str(run_dir), "data": str(data), "test_data": str(ev.test_data or data),
+            "seeds": ev.seeds,
             "methods": [m.name for m in ev.methods], "skipped": ev.skipped, "seconds": ev.seconds,
             "results": results(ev), "results_seen_rooms": results(ev, seen=True), "seen_rooms": ev.seen_ids,
             "spot_snr_over_oracle": ev.snr, "decimation": ev.decimation,

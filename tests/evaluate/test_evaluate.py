@@ -144,3 +144,25 @@ def test_cli_errors_are_one_line(tmp_path, capsys):
     assert nlos(["evaluate", str(tmp_path), "--data", str(tmp_path), "--out", str(tmp_path / "r")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error:") and "\n" not in err and "config.json" in err
+
+
+def test_test_data_scores_the_rooms_of_another_dataset(evaluated, tmp_path):
+    """``--test-data``: the finished runs are scored on a test-only dataset's rooms (its people's
+    true positions in raw.csv, its scene ids), and evaluation.json names it."""
+    from nlos_spotlight.data.tensors import load_scene_tensors, split_ids
+
+    data, run, _, _ = evaluated
+    other = tmp_path / "other"
+    generate(DatasetConfig(**{**MICRO, "seed": 11, "train_scenes": 0, "val_scenes": 0, "test_scenes": 1}), other,
+             progress=False)
+    out = tmp_path / "report"
+    assert nlos(["evaluate", str(run), "--data", str(data), "--test-data", str(other), "--out", str(out),
+                 "--seeds", "2", "--methods", "random_resnet,oracle_resnet", "--quiet"]) == 0
+    assert json.loads((out / "evaluation.json").read_text())["test_data"] == str(other)
+    sid, = split_ids(other, "test")
+    s = load_scene_tensors(other / "scenes" / sid, ["normals"])
+    with (out / "raw.csv").open() as f:
+        rows = [r for r in csv.DictReader(f) if r["method"] == "oracle_resnet" and r["seed"] == "0"]
+    assert {r["scene"] for r in rows} == {sid} and len(rows) == s.num_samples
+    true = np.array([[float(r["true_x"]), float(r["true_y"])] for r in sorted(rows, key=lambda r: int(r["sample"]))])
+    np.testing.assert_allclose(true, s.target.numpy(), atol=1e-4)
