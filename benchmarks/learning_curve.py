@@ -79,8 +79,9 @@ def run_one(args, rooms, spec: dict, seed: int):
     """One run of the plan: a network on every room, or with ``--per-room`` one per room, pooled."""
     if not args.per_room:
         return run_spec(args, rooms, spec, seed, "")
-    return pool_results([run_spec(args, [r], spec, seed, f"/room-{i}", room_index=i) for i, r in enumerate(rooms)],
-                        [r.test.num_samples for r in rooms])
+    keep = [int(i) for i in args.room_indices.split(",")] if args.room_indices else range(len(rooms))
+    return pool_results([run_spec(args, [rooms[i]], spec, seed, f"/room-{i}", room_index=i) for i in keep],
+                        [rooms[i].test.num_samples for i in keep])
 
 
 def pool_results(res: list, tests: list[int]):
@@ -106,8 +107,11 @@ def run_spec(args, rooms, spec: dict, seed: int, sub: str, room_index: int | Non
         cfg = dataclasses.replace(cfg, policy="ien", spot_steps=args.spot_steps)
     else:
         cfg = dataclasses.replace(cfg, policy=spec["policy"])
+    if args.aux_weight > 0:  # facing and height as auxiliary targets
+        cfg = dataclasses.replace(cfg, aux_weight=args.aux_weight, net=dataclasses.replace(cfg.net, aux_head=True))
     label = arch_label(spec["backbone"], args.stem, args.pool_grid).replace("/", "-")
-    key = f"{spec['capture']}-{spec['policy']}-{spec['n']}-{label}-s{seed}" + ("-per-room" if args.per_room else "")
+    key = f"{spec['capture']}-{spec['policy']}-{spec['n']}-{label}-s{seed}" + ("-per-room" if args.per_room else "") \
+        + (f"-aux{args.aux_weight:g}" if args.aux_weight > 0 else "")
     epochs = args.epochs * (args.resnet18_epoch_scale if spec["backbone"] == "resnet18" else 1.0)
     spots = None
     if room_index is not None and spec["policy"] != "ien":  # the room's own draw, not room 0's
@@ -153,6 +157,9 @@ def main() -> None:
                     help="only the ResNet-18 and baseline runs (a second process beside the curve's)")
     ap.add_argument("--per-room", action="store_true",
                     help="one network per room (as nlos fit trains), scores pooled over the rooms")
+    ap.add_argument("--room-indices", default="", help="--per-room: only these rooms (comma-separated indices)")
+    ap.add_argument("--aux-weight", type=float, default=0.0,
+                    help="facing and height as auxiliary targets with this loss weight (0: none)")
     ap.add_argument("--only", default="", help="only these captures of the plan, comma-separated (e.g. burst-16)")
     ap.add_argument("--epochs", type=float, default=40)
     ap.add_argument("--patience", type=int, default=8)
@@ -185,7 +192,8 @@ def main() -> None:
                "posture3_accuracy": round(mean("posture3_accuracy"), 2), "error_cm": round(mean("error_cm"), 2),
                "crb_cm": crb.get(spec["policy"], "") if spec["capture"] == "default" else "",
                "seeds": len(res),
-               "arch": arch_label(spec["backbone"], args.stem, args.pool_grid) + ("/per-room" if args.per_room else ""),
+               "arch": arch_label(spec["backbone"], args.stem, args.pool_grid) + ("/per-room" if args.per_room else "")
+               + ("/aux" if args.aux_weight > 0 else ""),
                "mean_answer_cm": round(mean("mean_answer_cm"), 2),
                "steps": int(mean("steps")), "seconds": round(mean("seconds"), 1)}
         rows.append(row)

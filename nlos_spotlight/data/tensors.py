@@ -69,6 +69,9 @@ class SceneTensors:
     a room loaded without image samples); None (scenes built in memory): all."""
     transport: torch.Tensor | None = None
     """(N,) bool: the sample stores full transport (False: an image sample); None: all full."""
+    nuisance: torch.Tensor | None = None
+    """(N, 3) cos and sin of the body's facing in the region frame and its height (m): what else
+    changes the person's light (auxiliary targets); None where the dataset does not store them."""
 
     def to(self, device) -> "SceneTensors":
         move = lambda v: v.to(device) if isinstance(v, torch.Tensor) else v
@@ -84,7 +87,7 @@ class SceneTensors:
         return SceneTensors(**{k: take(k, getattr(self, k)) for k in self.__dataclass_fields__})
 
 
-PER_SAMPLE = ("u", "v", "nlos_ambient", "target", "posture", "trajectory", "flash_nlos", "transport")
+PER_SAMPLE = ("u", "v", "nlos_ambient", "target", "posture", "trajectory", "flash_nlos", "transport", "nuisance")
 """SceneTensors fields indexed by sample (the rest describe the room)."""
 
 
@@ -166,6 +169,8 @@ def stored_spots(scene_dir: Path) -> list[int] | None:
 
 
 _LABELS = ("position", "posture", "trajectory", "frame")
+_NUISANCES = ("facing_deg", "height_m")
+"""Labels besides the targets (auxiliary targets: ``SceneTensors.nuisance``); older datasets may lack them."""
 
 
 def _read_sample(path: Path, image: bool) -> dict:
@@ -175,6 +180,7 @@ def _read_sample(path: Path, image: bool) -> dict:
 
     with np.load(path) as z:
         out = {k: z[k] for k in _LABELS}
+        out.update({k: z[k] for k in _NUISANCES if k in z.files})
         for k in ("nlos_ambient", "flash_nlos") + (("nlos_spots",) if image else ()):
             if k in z.files:
                 out[k] = f16_decode(z, k)
@@ -254,7 +260,17 @@ def load_scene_tensors(scene_dir: Path, features: list[str], samples: str = "all
         flash_direct=f32(st["flash_direct"]) if "flash_direct" in st.files else None,
         flash_nlos=f32(np.stack([z["flash_nlos"] for z in zs])) if has_flash else None,
         scene_dir=str(scene_dir), stored=torch.from_numpy(stored),
-        transport=torch.as_tensor([True] * len(full) + [False] * len(images), dtype=torch.bool))
+        transport=torch.as_tensor([True] * len(full) + [False] * len(images), dtype=torch.bool),
+        nuisance=nuisances(zs, fwd))
+
+
+def nuisances(zs: list[dict], fwd_xy: np.ndarray) -> torch.Tensor | None:
+    """(N, 3) cos, sin of the facing relative to the region frame's forward axis, and height (m)."""
+    if not zs or not all(k in z for z in zs for k in _NUISANCES):
+        return None
+    a = np.radians([float(z["facing_deg"]) for z in zs]) - np.arctan2(fwd_xy[1], fwd_xy[0])
+    h = np.array([float(z["height_m"]) for z in zs])
+    return torch.as_tensor(np.stack([np.cos(a), np.sin(a), h], 1), dtype=torch.float32)
 
 
 def split_ids(data_dir: str | Path, split: str) -> list[str]:

@@ -14,7 +14,8 @@ infer the room's layout from its light, which a network trained on a few hundred
 
 Shapes:
     images (B, H, W, 3) or (B, 3, H, W), clipped (B, H, W) bool or None,
-    geometry (B, 10, H, W) or None -> position (B, 2) in meters, posture logits (B, 6).
+    geometry (B, 10, H, W) or None -> position (B, 2) in meters, posture logits (B, 6)
+    [, with ``with_aux`` the nuisances (B, 3)].
 """
 
 from __future__ import annotations
@@ -54,6 +55,8 @@ class NLOSNetConfig:
     """Append the camera's clip flag (1 where the pixel saturated) as an input channel."""
     geometry: bool = False
     """Append the room's per-pixel geometry and the spot's lit fraction (``data.geometry``, 10 channels)."""
+    aux_head: bool = False
+    """A third head for the nuisances (cos, sin of the facing; height, m): auxiliary targets (``aux_weight``)."""
 
 
 def with_coordinates(x: torch.Tensor) -> torch.Tensor:
@@ -85,6 +88,7 @@ class NLOSNet(nn.Module):
         h, f = cfg.head_hidden, self.backbone.out_features
         self.position_head = mlp([f, h, h, h, 2])
         self.posture_head = mlp([f, h, h, h, cfg.postures])
+        self.aux_head = mlp([f, h, h, h, 3]) if cfg.aux_head else None
 
     def reset_parameters(self) -> None:
         for m in self.modules():
@@ -108,7 +112,7 @@ class NLOSNet(nn.Module):
     """Divide each image by its RMS (off when the registry's wrapper scales by the background)."""
 
     def forward(self, images: torch.Tensor, clipped: torch.Tensor | None = None,
-                geometry: torch.Tensor | None = None):
+                geometry: torch.Tensor | None = None, with_aux: bool = False):
         x = exposure_normalized(images) if self.per_image_norm else self.channels_first(images)
         if self.cfg.clip_flag:  # no flag given: nothing clipped (noise-free images)
             flag = torch.zeros_like(x[:, :1]) if clipped is None else clipped.unsqueeze(1).to(x.dtype)
@@ -119,4 +123,8 @@ class NLOSNet(nn.Module):
                                  f"{x.shape[2]}, {x.shape[3]}), got {None if geometry is None else tuple(geometry.shape)}")
             x = torch.cat([x, geometry.to(x.dtype)], dim=1)
         f = self.backbone(with_coordinates(x) if self.cfg.coord_channels else x)
+        if with_aux:  # (B, 3) nuisances besides position and posture
+            if self.aux_head is None:
+                raise ValueError("this network has no auxiliary head (net.aux_head)")
+            return self.position_head(f), self.posture_head(f), self.aux_head(f)
         return self.position_head(f), self.posture_head(f)

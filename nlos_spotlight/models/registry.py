@@ -57,7 +57,7 @@ class PositionScaled(nn.Module):
         self.position_std.copy_(targets.std(0).clamp(min=0.05) if len(targets) > 1 else torch.ones(2))
 
     def forward(self, images: torch.Tensor, background: torch.Tensor | None = None,
-                clipped: torch.Tensor | None = None, geometry: torch.Tensor | None = None):
+                clipped: torch.Tensor | None = None, geometry: torch.Tensor | None = None, with_aux: bool = False):
         if self.subtract:
             if background is None:
                 raise ValueError("this network reads photograph - empty-room photograph: pass the background")
@@ -68,11 +68,13 @@ class PositionScaled(nn.Module):
                 rms = background.pow(2).mean(dim=(-3, -2, -1), keepdim=True).sqrt().clamp(min=1e-20)
                 images = 1e3 * images / rms
         extra = {"geometry": geometry} if getattr(self.net, "reads_geometry", False) else {}
+        if with_aux:
+            extra["with_aux"] = True
         if getattr(self.net, "reads_clip_flag", False):
-            pos, logits = self.net(images, clipped, **extra)
+            out = self.net(images, clipped, **extra)
         else:
-            pos, logits = self.net(images, **extra)
-        return self.position_mean + self.position_std * pos, logits
+            out = self.net(images, **extra)
+        return (self.position_mean + self.position_std * out[0], *out[1:])
 
 
 def build_network(arch: str, cfg: NLOSNetConfig | None = None) -> PositionScaled:

@@ -62,6 +62,9 @@ class TrainConfig:
     """Stop after this many validation passes without improvement (0: never stop early)."""
     lr_schedule: str = "constant"
     """'constant' or 'cosine' (from lr down to lr / 100 over the network's steps)."""
+    aux_weight: float = 0.0
+    """Weight of the auxiliary nuisance loss, the MSE of (cos, sin) facing and height (m) (needs
+    ``net.aux_head``; 0: none): the arms change the walls' light much as facing and height do."""
     spot_augment: bool = False
     """Training only: each room lit by one of its stored, landed spots drawn afresh every step (for a
     network that reads the lit channel, ``net.geometry``); validation and tests use the policy's spot."""
@@ -91,7 +94,7 @@ class TrainConfig:
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < float("inf"):
                 raise NlosError(f"config: {k} must be a positive number, got {v!r}")
-        for k in ("weight_decay", "ien_lr_scale", "position_weight", "posture_weight", "snr_weight"):
+        for k in ("weight_decay", "ien_lr_scale", "position_weight", "posture_weight", "snr_weight", "aux_weight"):
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v < float("inf"):
                 raise NlosError(f"config: {k} must be a non-negative number, got {v!r}")

@@ -244,7 +244,15 @@ class Trainer:
             photos.append(capture(s, idx, y, mode, self.sensor, self.gen, self.cfg.sensor_noise, self.cfg.net))
         cat = lambda name: torch.cat([getattr(p, name) for p in photos]) if getattr(photos[0], name) is not None \
             else None
-        pos, post = self.net_ddp(cat("images"), cat("background"), cat("clipped"), cat("geometry"))
+        aux_loss = torch.zeros((), device=self.device)
+        if self.cfg.aux_weight > 0:
+            pos, post, aux = self.net_ddp(cat("images"), cat("background"), cat("clipped"), cat("geometry"),
+                                          with_aux=True)
+            if any(s.nuisance is None for s, _ in parts):
+                raise NlosError("aux_weight: the dataset stores no facing and height labels (regenerate it)")
+            aux_loss = F.mse_loss(aux, torch.cat([s.nuisance[idx] for s, idx in parts]))
+        else:
+            pos, post = self.net_ddp(cat("images"), cat("background"), cat("clipped"), cat("geometry"))
         target = torch.cat([s.target[idx] for s, idx in parts])
         posture = torch.cat([s.posture[idx] for s, idx in parts])
         pos_loss = F.mse_loss(pos, target)
@@ -253,7 +261,7 @@ class Trainer:
         spot_loss = torch.stack([self.spot_loss(s, logits) for s, (_, _, logits) in zip(scenes, ills)]).mean()
         y = ills[0][0]
         return {"loss": self.cfg.position_weight * pos_loss + self.cfg.posture_weight * cls_loss
-                + self.cfg.snr_weight * spot_loss, "spot_loss": spot_loss,
+                + self.cfg.snr_weight * spot_loss + self.cfg.aux_weight * aux_loss, "spot_loss": spot_loss,
                 "pos_loss": pos_loss, "cls_loss": cls_loss, "err_cm": 100 * err.mean(),
                 "acc": (post.argmax(1) == posture).float().mean(),
                 "spot": y.argmax() if y is not None else torch.tensor(-1),
@@ -380,6 +388,8 @@ def check_config(cfg: TrainConfig) -> None:
         raise NlosError(f"config: lr_schedule must be 'constant' or 'cosine', got {cfg.lr_schedule!r}")
     if cfg.spot_steps > 0 and cfg.policy != "ien":
         raise NlosError(f"config: spot_steps (two-stage training) trains the IEN; policy is '{cfg.policy}'")
+    if cfg.aux_weight > 0 and not cfg.net.aux_head:
+        raise NlosError("config: aux_weight needs the network's auxiliary head (net.aux_head: true)")
     if cfg.spot_augment and cfg.policy == "ien" and cfg.spot_steps == 0:
         raise NlosError("config: spot_augment lights training rooms by random stored spots, so the IEN gets no "
                         "task gradient: use a fixed policy or two-stage training (spot_steps > 0)")

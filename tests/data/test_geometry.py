@@ -98,3 +98,33 @@ def test_spot_augment_draws_stored_landed_spots_uniformly(micro_scene, tmp_path)
     assert int(y.argmax()) == POLICIES["center"](s, s.scene_dir, policy_rng(0, 0)).face
     tr.train_step()  # the geometry-aware network trains under the drawn spots
     assert tr.step == 1
+
+
+def test_auxiliary_nuisance_loss_is_the_facing_and_height_mse(micro_scene, tmp_path):
+    """The loss with ``aux_weight`` w is the loss without it plus w x MSE(aux head, (cos, sin facing,
+    height)); the nuisances are the stored labels turned into the region frame."""
+    import dataclasses
+
+    import numpy as np
+
+    from nlos_spotlight.train.config import TrainConfig
+    from nlos_spotlight.train.loop import Trainer
+
+    scene_dir, s = micro_scene
+    static = torch.nonzero(s.trajectory[:, 0] < 0).flatten()
+    z = np.load(sorted((scene_dir / "samples").glob("*.npz"))[0])
+    fwd = s.forward_xy.numpy()
+    a = np.radians(float(z["facing_deg"])) - np.arctan2(fwd[1], fwd[0])
+    torch.testing.assert_close(s.nuisance[0], torch.tensor([np.cos(a), np.sin(a), float(z["height_m"])],
+                                                           dtype=torch.float32))
+    net = NLOSNetConfig(aux_head=True, backbone="resnet10-narrow", stem="half")
+    cfg = TrainConfig(policy="center", sensor_noise=False, batch_size=len(static), net=net)
+    tr = Trainer(cfg, [s], tmp_path)
+    s = tr.scenes[0]
+    base = tr.loss_on(s, static)["loss"]
+    tr.cfg = dataclasses.replace(cfg, aux_weight=2.0)
+    with_aux = tr.loss_on(s, static)["loss"]
+    (y, mode, _), = tr.illuminations([s], train=True)
+    ph = capture(s, static, y, mode, tr.sensor, None, False, net)
+    _, _, aux = tr.net(ph.images, ph.background, ph.clipped, ph.geometry, with_aux=True)
+    torch.testing.assert_close(with_aux - base, 2.0 * torch.nn.functional.mse_loss(aux, s.nuisance[static]))
