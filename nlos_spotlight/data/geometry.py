@@ -24,7 +24,7 @@ import numpy as np
 import torch
 
 from ..errors import NlosError
-from .tensors import SceneTensors, ground_frame
+from .tensors import SceneTensors, region_points
 
 GEOMETRY_CHANNELS = 10
 """Position (3), normal (3), albedo (3), lit fraction (1)."""
@@ -48,10 +48,8 @@ def _room_geometry(scene_dir: str) -> torch.Tensor:
     h, w = g.hit.shape
     fwd = -pose[:2, 2] / np.linalg.norm(pose[:2, 2])
     origin = (np.asarray(scene.hidden_region.min, float) + np.asarray(scene.hidden_region.max, float))[:2] / 2
-    pos_xy = ground_frame(g.position[..., :2].reshape(-1, 2), origin, fwd).reshape(h, w, 2)
-    nrm_xy = ground_frame(g.normal[..., :2].reshape(-1, 2), np.zeros(2), fwd).reshape(h, w, 2)
-    pos = np.concatenate([pos_xy, g.position[..., 2:] - floor_z], -1)
-    nrm = np.concatenate([nrm_xy, g.normal[..., 2:]], -1)
+    pos = region_points(g.position.reshape(-1, 3), origin, fwd, floor_z).reshape(h, w, 3)
+    nrm = region_points(g.normal.reshape(-1, 3), np.zeros(2), fwd, 0.0).reshape(h, w, 3)  # directions: no shift
     room = np.concatenate([pos, nrm, g.albedo], -1) * g.hit[..., None]  # misses: all zero
     return torch.as_tensor(room, dtype=torch.float32).permute(2, 0, 1).contiguous()
 

@@ -137,19 +137,49 @@ def ground_frame(pos_xy: np.ndarray, origin_xy: np.ndarray, fwd_xy: np.ndarray) 
 
 def region_center(scene_dir: Path) -> np.ndarray:
     """(2,) world floor center of a dataset scene's hidden region."""
+    return _hidden_region(scene_dir)[0]
+
+
+def region_floor(scene_dir: Path) -> float:
+    """Floor height of a dataset scene's hidden region, m."""
+    return _hidden_region(scene_dir)[1]
+
+
+def _hidden_region(scene_dir: Path) -> tuple[np.ndarray, float]:
     try:
         hr = json.loads((scene_dir / "scene.json").read_text())["hidden_region"]
-        return (np.asarray(hr["min"], float) + np.asarray(hr["max"], float)) / 2
+        return (np.asarray(hr["min"], float) + np.asarray(hr["max"], float)) / 2, float(hr.get("floor_z", 0.0))
     except (OSError, KeyError, TypeError, json.JSONDecodeError) as exc:
         raise NlosError(f"{scene_dir}/scene.json: no readable hidden_region ({type(exc).__name__})") from None
 
 
-def graph_inputs(mesh: TriMesh, camera_to_world: np.ndarray, features: list[str]):
-    """IEN input of a LOS mesh: (V, 3 [+3]) normalized camera-frame coordinates [+ normals], (2, E) edges."""
+IEN_FEATURES = ("normals", "region")
+"""Vertex features the IEN may read besides its normalized camera-frame coordinates."""
+REGION_SCALE_M = 3.0
+"""Region-frame coordinates reach the IEN in units of this length (meters kept: SNR falls with distance)."""
+
+
+def region_points(points: np.ndarray, origin_xy: np.ndarray, fwd_xy: np.ndarray, floor_z: float) -> np.ndarray:
+    """World points (N, 3) -> region frame (along the view, to its left, height above the hidden floor)."""
+    return np.column_stack([ground_frame(points[:, :2], origin_xy, fwd_xy), points[:, 2] - floor_z])
+
+
+def graph_inputs(mesh: TriMesh, camera_to_world: np.ndarray, features: list[str], region: tuple | None = None):
+    """IEN input of a LOS mesh: (V, 3 [+3] [+3]) normalized camera-frame coordinates [+ normals]
+    [+ region-frame coordinates / ``REGION_SCALE_M``: where each vertex is relative to the hidden
+    region, ``region`` = (origin_xy, fwd_xy, floor_z)], (2, E) edges."""
+    unknown = set(features) - set(IEN_FEATURES)
+    if unknown:
+        raise NlosError(f"ien_features: unknown {sorted(unknown)} (known: {', '.join(IEN_FEATURES)})")
     graph = mesh_to_graph(mesh, frame=np.linalg.inv(camera_to_world))
     x = normalize_positions(torch.as_tensor(graph.pos, dtype=torch.float32))[0]
     if "normals" in features:
         x = torch.cat([x, torch.as_tensor(graph.normals, dtype=torch.float32)], dim=1)
+    if "region" in features:
+        if region is None:
+            raise NlosError("this IEN reads where the hidden region is (ien_features 'region'): give the region")
+        r = region_points(np.asarray(mesh.vertices, np.float64), *region) / REGION_SCALE_M
+        x = torch.cat([x, torch.as_tensor(r, dtype=torch.float32)], dim=1)
     return x, torch.as_tensor(np.asarray(graph.edge_index), dtype=torch.long)
 
 
@@ -240,11 +270,12 @@ def load_scene_tensors(scene_dir: Path, features: list[str], samples: str = "all
     u, v = _factors(full, images, spots, num_t)
     zs = full + images
     pose = st["camera_to_world"]
-    x, edges = graph_inputs(TriMesh(st["los_vertices"], st["los_faces"]), pose, features)
     fwd = -pose[:2, 2]
     fwd = fwd / np.linalg.norm(fwd)
     cam = pose[:2, 3]
     origin = region_center(scene_dir)
+    x, edges = graph_inputs(TriMesh(st["los_vertices"], st["los_faces"]), pose, features,
+                            (origin, fwd, region_floor(scene_dir)))
     f32 = lambda a: torch.as_tensor(np.asarray(a), dtype=torch.float32)
     has_flash = bool(zs) and all("flash_nlos" in z for z in zs)
     return SceneTensors(

@@ -19,7 +19,7 @@ import torch
 from ..lighting import Illumination
 from ..scene.format import TriMesh
 from ..train.checkpoint import TrainedModels
-from ..data.tensors import SceneTensors, graph_inputs
+from ..data.tensors import SceneTensors, graph_inputs, region_floor
 
 RATIOS = tuple(round(0.1 * k, 1) for k in range(1, 11))
 """Decimation ratios of the figure (fraction of the dense mesh's vertices kept)."""
@@ -67,10 +67,11 @@ def choices(models: TrainedModels, s: SceneTensors, ratios=RATIOS) -> list[Decim
     pose, aims = st["camera_to_world"], st["aim_points"]
     ok = st["spot_landed"]
     dense = dense_los_mesh(Path(s.scene_dir))
+    region = (s.origin_xy.numpy(), s.forward_xy.numpy(), region_floor(Path(s.scene_dir)))
     out = []
     for r in ratios:
         mesh = decimate_ratio(dense, r) if r < 1 else dense
-        x, edges = graph_inputs(mesh, pose, models.config.ien_features)
+        x, edges = graph_inputs(mesh, pose, models.config.ien_features, region)
         with torch.no_grad():
             face = int(models.ien(x, edges, torch.as_tensor(mesh.faces, dtype=torch.long)).argmax())
         c = mesh.vertices[mesh.faces[face]].mean(0)
