@@ -59,7 +59,7 @@ def load_rooms(data: Path, split: str, samples: str, limit: int = 0) -> list:
 
 def net_config(args, net: str, rooms: int, seed: int, noise: bool):
     cfg = seen_config(rooms, seed, noise=noise, policy="oracle", batch=args.batch, lr=args.lr, patience=args.patience)
-    cfg = dataclasses.replace(cfg, spot_augment=True, holdout_every=0,
+    cfg = dataclasses.replace(cfg, spot_augment=True, holdout_every=0, scenes_per_step=min(rooms, args.scenes_per_step),
                               net=dataclasses.replace(cfg.net, geometry=net == "geometry"))
     return cfg
 
@@ -105,11 +105,17 @@ def main() -> None:
     ap.add_argument("--policies", default="oracle,adaptive,center,random", help="test-room spot policies")
     ap.add_argument("--captures", default="default", help="noise-free and/or default")
     ap.add_argument("--test-rooms", type=int, default=0, help="score on the first N test rooms only (0: all)")
+    ap.add_argument("--test-split", default="test", help="split of --test to score on")
+    ap.add_argument("--test-offset", type=int, default=0,
+                    help="skip the first N rooms of that split (quick checks on later training rooms)")
+    ap.add_argument("--test-samples", default="transport",
+                    help="sample kind of the test rooms: transport (any spot) or images (stored spots only)")
     ap.add_argument("--ien", action="store_true", help="train the IEN across rooms and score its spot too")
     ap.add_argument("--ien-steps", type=int, default=2000)
     ap.add_argument("--epochs", type=float, default=40.0, help="passes over the training people")
     ap.add_argument("--seeds", type=int, default=1)
     ap.add_argument("--batch", type=int, default=64)
+    ap.add_argument("--scenes-per-step", type=int, default=16, help="rooms mixed in each batch")
     ap.add_argument("--lr", type=float, default=2e-3)
     ap.add_argument("--patience", type=int, default=0)
     ap.add_argument("--val-every", type=int, default=0, help="steps between validation passes (0: ~25 a run)")
@@ -121,7 +127,11 @@ def main() -> None:
     train_all = load_rooms(args.train, "train", "images", max(sizes))
     sizes = [r for r in sizes if r <= len(train_all)] or [len(train_all)]
     val = load_rooms(args.train, "val", "images")
-    test = load_rooms(args.test, "test", "transport", args.test_rooms)
+    test = load_rooms(args.test, args.test_split, args.test_samples,
+                      args.test_offset + args.test_rooms if args.test_rooms else 0)
+    test = test[args.test_offset:]
+    if args.test == args.train and args.test_split == "train" and args.test_offset < max(sizes):
+        raise SystemExit("--test-offset: the test rooms must come after every training room")
     print(f"{len(train_all)} training rooms, {len(val)} validation rooms, {len(test)} test rooms "
           f"({sum(s.num_samples for s in test)} test people)", flush=True)
     lights = {p: room_lights(test, p, 0) for p in policies}
