@@ -107,11 +107,13 @@ def run_spec(args, rooms, spec: dict, seed: int, sub: str, room_index: int | Non
         cfg = dataclasses.replace(cfg, policy="ien", spot_steps=args.spot_steps)
     else:
         cfg = dataclasses.replace(cfg, policy=spec["policy"])
+    if args.select != "loss":
+        cfg = dataclasses.replace(cfg, select=args.select)
     if args.aux_weight > 0:  # facing and height as auxiliary targets
         cfg = dataclasses.replace(cfg, aux_weight=args.aux_weight, net=dataclasses.replace(cfg.net, aux_head=True))
     label = arch_label(spec["backbone"], args.stem, args.pool_grid).replace("/", "-")
     key = f"{spec['capture']}-{spec['policy']}-{spec['n']}-{label}-s{seed}" + ("-per-room" if args.per_room else "") \
-        + (f"-aux{args.aux_weight:g}" if args.aux_weight > 0 else "")
+        + (f"-aux{args.aux_weight:g}" if args.aux_weight > 0 else "") + (f"-sel-{args.select}" if args.select != "loss" else "")
     epochs = args.epochs * (args.resnet18_epoch_scale if spec["backbone"] == "resnet18" else 1.0)
     spots = None
     if room_index is not None and spec["policy"] != "ien":  # the room's own draw, not room 0's
@@ -158,6 +160,8 @@ def main() -> None:
     ap.add_argument("--per-room", action="store_true",
                     help="one network per room (as nlos fit trains), scores pooled over the rooms")
     ap.add_argument("--room-indices", default="", help="--per-room: only these rooms (comma-separated indices)")
+    ap.add_argument("--select", default="loss", choices=["loss", "metrics", "last"],
+                    help="best weights by validation loss, by posture and position errors, or the last ones")
     ap.add_argument("--aux-weight", type=float, default=0.0,
                     help="facing and height as auxiliary targets with this loss weight (0: none)")
     ap.add_argument("--only", default="", help="only these captures of the plan, comma-separated (e.g. burst-16)")
@@ -193,7 +197,7 @@ def main() -> None:
                "crb_cm": crb.get(spec["policy"], "") if spec["capture"] == "default" else "",
                "seeds": len(res),
                "arch": arch_label(spec["backbone"], args.stem, args.pool_grid) + ("/per-room" if args.per_room else "")
-               + ("/aux" if args.aux_weight > 0 else ""),
+               + ("/aux" if args.aux_weight > 0 else "") + (f"/sel-{args.select}" if args.select != "loss" else ""),
                "mean_answer_cm": round(mean("mean_answer_cm"), 2),
                "steps": int(mean("steps")), "seconds": round(mean("seconds"), 1)}
         rows.append(row)

@@ -60,6 +60,9 @@ class TrainConfig:
     """Steps between validation passes."""
     patience: int = 0
     """Stop after this many validation passes without improvement (0: never stop early)."""
+    select: str = "loss"
+    """Best weights by validation 'loss', by 'metrics' (posture errors + localization error in m) or
+    the 'last' ones: noise-free, the loss rises with overconfidence while accuracy still improves."""
     lr_schedule: str = "constant"
     """'constant' or 'cosine' (from lr down to lr / 100 over the network's steps)."""
     aux_weight: float = 0.0

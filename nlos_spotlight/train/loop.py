@@ -384,6 +384,8 @@ def check_config(cfg: TrainConfig) -> None:
     for name in ("spot_steps", "patience"):
         if getattr(cfg, name) < 0:
             raise NlosError(f"config: {name} must be at least 0, got {getattr(cfg, name)}")
+    if cfg.select not in ("loss", "metrics", "last"):
+        raise NlosError(f"config: select must be 'loss', 'metrics' or 'last', got {cfg.select!r}")
     if cfg.lr_schedule not in ("constant", "cosine"):
         raise NlosError(f"config: lr_schedule must be 'constant' or 'cosine', got {cfg.lr_schedule!r}")
     if cfg.spot_steps > 0 and cfg.policy != "ien":
@@ -404,6 +406,17 @@ def split_validation(s: SceneTensors, every: int) -> tuple[SceneTensors, SceneTe
     return s.subset(torch.nonzero(~val).flatten()), s.subset(torch.nonzero(val).flatten())
 
 
+def selection_score(row: dict, select: str, step: int) -> float:
+    """What a validation pass minimizes to pick the best weights (``TrainConfig.select``): the loss;
+    'metrics': posture error rate + localization error in m (1 cm weighs as one point of accuracy);
+    'last': the latest weights."""
+    if select == "metrics":
+        return (1.0 - row["acc"]) + row["err_cm"] / 100.0
+    if select == "last":
+        return -float(step)
+    return row["loss"]
+
+
 def _validation_pass(tr: Trainer, out: Path) -> bool:
     """Score the validation people; keep the best weights in best.pt. Returns True to stop early."""
     row = tr.validate()
@@ -415,8 +428,9 @@ def _validation_pass(tr: Trainer, out: Path) -> bool:
             if new:
                 w.writerow(["step", "loss", "err_cm", "acc"])
             w.writerow([tr.step, row["loss"], row["err_cm"], row["acc"]])
-    if row["loss"] < tr.best_val:
-        tr.best_val, tr.bad_evals = row["loss"], 0
+    score = selection_score(row, tr.cfg.select, tr.step)
+    if score < tr.best_val:
+        tr.best_val, tr.bad_evals = score, 0
         tr.save(out / "best.pt")
     else:
         tr.bad_evals += 1

@@ -126,3 +126,19 @@ def test_bad_training_values_and_resumed_logs(tmp_path):
     log.write_text("step,loss\n5,1.0\n10,0.9\n15,0.8\n")
     truncate_log(log, 10)
     assert [r["step"] for r in csv.DictReader(log.open())] == ["5", "10"]
+
+
+def test_selection_by_metrics_or_last_weights():
+    """Validation picks by loss, by posture errors + localization error (m), or the latest step;
+    an unknown criterion is a one-line error."""
+    from nlos_spotlight.errors import NlosError
+    from nlos_spotlight.train.loop import check_config, selection_score
+
+    early = {"loss": 1.0, "acc": 0.47, "err_cm": 20.8}  # room 0 of the per-room run: best loss, early
+    late = {"loss": 1.8, "acc": 0.60, "err_cm": 14.5}  # its last pass: higher loss, better in both metrics
+    assert selection_score(early, "loss", 880) < selection_score(late, "loss", 2760)
+    assert selection_score(late, "metrics", 2760) == pytest.approx(0.40 + 0.145)
+    assert selection_score(late, "metrics", 2760) < selection_score(early, "metrics", 880)
+    assert selection_score(late, "last", 2760) < selection_score(early, "last", 880)
+    with pytest.raises(NlosError, match="select"):
+        check_config(TrainConfig(select="best"))
