@@ -10,6 +10,7 @@ spots and samples that is.
 
 from __future__ import annotations
 
+import functools
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -153,7 +154,7 @@ def _hidden_region(scene_dir: Path) -> tuple[np.ndarray, float]:
         raise NlosError(f"{scene_dir}/scene.json: no readable hidden_region ({type(exc).__name__})") from None
 
 
-IEN_FEATURES = ("normals", "region")
+IEN_FEATURES = ("normals", "region", "adaptive")
 """Vertex features the IEN may read besides its normalized camera-frame coordinates."""
 REGION_SCALE_M = 3.0
 """Region-frame coordinates reach the IEN in units of this length (meters kept: SNR falls with distance)."""
@@ -164,10 +165,25 @@ def region_points(points: np.ndarray, origin_xy: np.ndarray, fwd_xy: np.ndarray,
     return np.column_stack([ground_frame(points[:, :2], origin_xy, fwd_xy), points[:, 2] - floor_z])
 
 
-def graph_inputs(mesh: TriMesh, camera_to_world: np.ndarray, features: list[str], region: tuple | None = None):
-    """IEN input of a LOS mesh: (V, 3 [+3] [+3]) normalized camera-frame coordinates [+ normals]
+def prior_per_vertex(mesh: TriMesh, scores: np.ndarray) -> np.ndarray:
+    """(V,) in [0, 1]: per face log10(score / best) over 4 decades mapped to [0, 1] (0 for no light
+    returned), then per vertex the best of its faces."""
+    scores = np.asarray(scores, np.float64)
+    top = scores.max() if scores.size and scores.max() > 0 else 1.0
+    with np.errstate(divide="ignore"):
+        f = np.clip((np.log10(np.maximum(scores, 0) / top) + 4.0) / 4.0, 0.0, 1.0)
+    out = np.zeros(len(mesh.vertices))
+    for k in range(3):
+        np.maximum.at(out, mesh.faces[:, k], f)
+    return out
+
+
+def graph_inputs(mesh: TriMesh, camera_to_world: np.ndarray, features: list[str], region: tuple | None = None,
+                 prior: np.ndarray | None = None):
+    """IEN input of a LOS mesh: (V, 3 [+3] [+3] [+1]) normalized camera-frame coordinates [+ normals]
     [+ region-frame coordinates / ``REGION_SCALE_M``: where each vertex is relative to the hidden
-    region, ``region`` = (origin_xy, fwd_xy, floor_z)], (2, E) edges."""
+    region, ``region`` = (origin_xy, fwd_xy, floor_z)] [+ 'adaptive': a physics prior, the Adaptive
+    Lighting score of each face (``prior``, (F,)) as :func:`prior_per_vertex`], (2, E) edges."""
     unknown = set(features) - set(IEN_FEATURES)
     if unknown:
         raise NlosError(f"ien_features: unknown {sorted(unknown)} (known: {', '.join(IEN_FEATURES)})")
@@ -180,7 +196,21 @@ def graph_inputs(mesh: TriMesh, camera_to_world: np.ndarray, features: list[str]
             raise NlosError("this IEN reads where the hidden region is (ien_features 'region'): give the region")
         r = region_points(np.asarray(mesh.vertices, np.float64), *region) / REGION_SCALE_M
         x = torch.cat([x, torch.as_tensor(r, dtype=torch.float32)], dim=1)
+    if "adaptive" in features:
+        if prior is None or len(prior) != len(mesh.faces):
+            raise NlosError("this IEN reads the Adaptive Lighting score of every face (ien_features 'adaptive'): "
+                            "give the scores")
+        x = torch.cat([x, torch.as_tensor(prior_per_vertex(mesh, prior), dtype=torch.float32)[:, None]], dim=1)
     return x, torch.as_tensor(np.asarray(graph.edge_index), dtype=torch.long)
+
+
+@functools.lru_cache(maxsize=None)
+def adaptive_prior(scene_dir: str) -> np.ndarray:
+    """(T,) Adaptive Lighting scores of a stored room's candidates (computed once per process)."""
+    from ..lighting.adaptive import adaptive_scores
+    from ..scene.io import load_scene
+
+    return adaptive_scores(load_scene(scene_dir), np.load(Path(scene_dir) / "static.npz")["aim_points"])
 
 
 SAMPLE_KINDS = ("all", "transport", "images")
@@ -275,7 +305,8 @@ def load_scene_tensors(scene_dir: Path, features: list[str], samples: str = "all
     cam = pose[:2, 3]
     origin = region_center(scene_dir)
     x, edges = graph_inputs(TriMesh(st["los_vertices"], st["los_faces"]), pose, features,
-                            (origin, fwd, region_floor(scene_dir)))
+                            (origin, fwd, region_floor(scene_dir)),
+                            adaptive_prior(str(scene_dir)) if "adaptive" in features else None)
     f32 = lambda a: torch.as_tensor(np.asarray(a), dtype=torch.float32)
     has_flash = bool(zs) and all("flash_nlos" in z for z in zs)
     return SceneTensors(

@@ -71,7 +71,13 @@ def choices(models: TrainedModels, s: SceneTensors, ratios=RATIOS) -> list[Decim
     out = []
     for r in ratios:
         mesh = decimate_ratio(dense, r) if r < 1 else dense
-        x, edges = graph_inputs(mesh, pose, models.config.ien_features, region)
+        prior = None
+        if "adaptive" in models.config.ien_features:
+            from ..lighting.adaptive import adaptive_scores
+            from ..scene import load_scene
+
+            prior = adaptive_scores(load_scene(s.scene_dir), mesh.centroids())
+        x, edges = graph_inputs(mesh, pose, models.config.ien_features, region, prior)
         with torch.no_grad():
             face = int(models.ien(x, edges, torch.as_tensor(mesh.faces, dtype=torch.long)).argmax())
         c = mesh.vertices[mesh.faces[face]].mean(0)
