@@ -8,8 +8,10 @@ scored on other rooms (the next ``--eval-rooms`` of the same dataset, or the tes
 random (issue 12's goal: at least 0.9 on unseen rooms).
 
 Feature sets: ``normals`` (camera-frame coordinates, normalized per mesh, and normals: the
-paper's input) and ``normals,region`` (plus each vertex's place relative to the hidden region in
-meters: the IEN otherwise has to guess where the people are from the walls' shape).
+paper's input), ``region`` (each vertex's place relative to the hidden region in meters: the IEN
+otherwise has to guess where the people are from the walls' shape) and ``adaptive`` (the Adaptive
+Lighting score of each face: a physics prior the IEN can refine). Training rooms are rooms 0..N-1
+of the split and evaluation rooms the next ones by index, so reruns compare on the same rooms.
 
     python benchmarks/ien_across_rooms.py --data out/unseen/train [--test out/unseen/test] \\
         [--train-rooms 30] [--eval-rooms 15] [--features "normals;normals,region"] [--steps 2000]
@@ -54,17 +56,22 @@ def main() -> None:
     ap.add_argument("--test", type=Path, help="score on this dataset's test split (default: the next rooms)")
     ap.add_argument("--train-rooms", type=int, default=30)
     ap.add_argument("--eval-rooms", type=int, default=15)
-    ap.add_argument("--features", default="normals;normals,region", help="feature sets, ';'-separated")
+    ap.add_argument("--features", default="normals;normals,region;normals,adaptive;normals,region,adaptive",
+                    help="feature sets, ';'-separated")
     ap.add_argument("--steps", type=int, default=2000)
     ap.add_argument("--seeds", type=int, default=1)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--out", type=Path, default=Path("docs/results/ien-across-rooms.csv"))
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
-    dirs = room_dirs(args.data, "train")
-    train_dirs = dirs[:args.train_rooms]
+    dirs = {int(d.name.split("-")[-1]): d for d in room_dirs(args.data, "train")}
+    want = range(args.train_rooms + (0 if args.test else args.eval_rooms))
+    missing = [i for i in want if i not in dirs]
+    if missing:  # a fixed set of rooms by index, so that reruns compare on the same rooms
+        raise SystemExit(f"rooms {missing[:5]}... of {args.data} are not finished yet")
+    train_dirs = [dirs[i] for i in range(args.train_rooms)]
     eval_dirs = room_dirs(args.test, "test")[:args.eval_rooms or None] if args.test else \
-        dirs[args.train_rooms:args.train_rooms + args.eval_rooms]
+        [dirs[i] for i in range(args.train_rooms, args.train_rooms + args.eval_rooms)]
     print(f"IEN on {len(train_dirs)} rooms, scored on {len(eval_dirs)} others", flush=True)
     rows = []
     base = [load_scene_tensors(d, ["normals"], "transport") for d in eval_dirs]

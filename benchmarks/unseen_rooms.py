@@ -119,9 +119,11 @@ def main() -> None:
     ap.add_argument("--lr", type=float, default=2e-3)
     ap.add_argument("--patience", type=int, default=0)
     ap.add_argument("--val-every", type=int, default=0, help="steps between validation passes (0: ~25 a run)")
+    ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--runs", type=Path, default=Path("out/unseen/runs"))
     ap.add_argument("--out", type=Path, default=Path("docs/results/unseen"))
     args = ap.parse_args()
+    torch.set_num_threads(args.threads)
     sizes = [int(r) for r in args.rooms.split(",")]
     policies = [p for p in args.policies.split(",") if p]
     train_all = load_rooms(args.train, "train", "images", max(sizes))
