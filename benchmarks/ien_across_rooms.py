@@ -10,7 +10,8 @@ random (issue 12's goal: at least 0.9 on unseen rooms).
 Feature sets: ``normals`` (camera-frame coordinates, normalized per mesh, and normals: the
 paper's input), ``region`` (each vertex's place relative to the hidden region in meters: the IEN
 otherwise has to guess where the people are from the walls' shape) and ``adaptive`` (the Adaptive
-Lighting score of each face: a physics prior the IEN can refine). Training rooms are rooms 0..N-1
+Lighting score of each face: a physics prior the IEN can refine; with ``--prior-weight`` w the
+prior's log also enters the logits, so the IEN learns a correction of it). Training rooms are rooms 0..N-1
 of the split and evaluation rooms the next ones by index, so reruns compare on the same rooms.
 
     python benchmarks/ien_across_rooms.py --data out/unseen/train [--test out/unseen/test] \\
@@ -29,6 +30,7 @@ import torch
 
 from nlos_spotlight.data.tensors import load_scene_tensors, split_ids
 from nlos_spotlight.evaluate.unseen import room_lights, snr_fraction
+from nlos_spotlight.models.ien import IENConfig
 from nlos_spotlight.train.config import TrainConfig
 from nlos_spotlight.train.loop import Trainer
 
@@ -40,9 +42,10 @@ def room_dirs(data: Path, split: str) -> list[Path]:
     return sorted(p for p in (data / "scenes").glob(f"{split}-*") if (p / "done.json").exists())
 
 
-def train_ien(rooms, steps: int, seed: int, out: Path):
+def train_ien(rooms, steps: int, seed: int, out: Path, prior_weight: float = 0.0):
     cfg = TrainConfig(name="ien-across-rooms", seed=seed, policy="ien", spot_steps=steps, steps=1, snr_weight=1.0,
-                      scenes_per_step=min(len(rooms), 8), batch_size=8, device="auto")
+                      scenes_per_step=min(len(rooms), 8), batch_size=8, device="auto",
+                      ien=IENConfig(prior_weight=prior_weight))
     tr = Trainer(cfg, rooms, out)
     t0 = time.perf_counter()
     while tr.in_spot_stage:
@@ -59,6 +62,8 @@ def main() -> None:
     ap.add_argument("--features", default="normals;normals,region;normals,adaptive;normals,region,adaptive",
                     help="feature sets, ';'-separated")
     ap.add_argument("--steps", type=int, default=2000)
+    ap.add_argument("--prior-weight", type=float, default=0.0,
+                    help="feature sets with 'adaptive': the IEN's logits also get this times the log prior")
     ap.add_argument("--seeds", type=int, default=1)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--out", type=Path, default=Path("docs/results/ien-across-rooms.csv"))
@@ -86,10 +91,11 @@ def main() -> None:
         train = [load_scene_tensors(d, f, "transport") for d in train_dirs]
         test = [load_scene_tensors(d, f, "transport") for d in eval_dirs]
         for seed in range(args.seeds):
-            ien, sec = train_ien(train, args.steps, seed, args.out.parent / ".ien-runs")
+            w = args.prior_weight if "adaptive" in f else 0.0
+            ien, sec = train_ien(train, args.steps, seed, args.out.parent / ".ien-runs", w)
             frac = snr_fraction(test, room_lights(test, "ien", seed, ien))
             fit = snr_fraction(train, room_lights(train, "ien", seed, ien))
-            rows.append({"policy": "ien", "features": feats, "seed": seed, "train_rooms": len(train_dirs),
+            rows.append({"policy": "ien", "features": feats + (f"+prior{w:g}" if w else ""), "seed": seed, "train_rooms": len(train_dirs),
                          "eval_rooms": len(eval_dirs), "snr_fraction_mean": round(float(frac.mean()), 3),
                          "snr_fraction_median": round(float(np.median(frac)), 3), "seconds": round(sec)})
             print(rows[-1], f"(on its training rooms: {fit.mean():.3f})", flush=True)

@@ -70,6 +70,9 @@ class SceneTensors:
     a room loaded without image samples); None (scenes built in memory): all."""
     transport: torch.Tensor | None = None
     """(N,) bool: the sample stores full transport (False: an image sample); None: all full."""
+    face_prior: torch.Tensor | None = None
+    """(T,) log Adaptive Lighting score of each candidate over the best (:func:`face_log_prior`), for
+    an IEN with ``prior_weight``; None unless the IEN reads the 'adaptive' feature."""
     nuisance: torch.Tensor | None = None
     """(N, 3) cos and sin of the body's facing in the region frame and its height (m): what else
     changes the person's light (auxiliary targets); None where the dataset does not store them."""
@@ -165,13 +168,26 @@ def region_points(points: np.ndarray, origin_xy: np.ndarray, fwd_xy: np.ndarray,
     return np.column_stack([ground_frame(points[:, :2], origin_xy, fwd_xy), points[:, 2] - floor_z])
 
 
-def prior_per_vertex(mesh: TriMesh, scores: np.ndarray) -> np.ndarray:
-    """(V,) in [0, 1]: per face log10(score / best) over 4 decades mapped to [0, 1] (0 for no light
-    returned), then per vertex the best of its faces."""
+PRIOR_DECADES = 4.0
+"""Range of the face prior: scores this many decades below the best count as none."""
+
+
+def prior_per_face(scores: np.ndarray) -> np.ndarray:
+    """(F,) in [0, 1]: log10(score / best) over ``PRIOR_DECADES`` decades mapped to [0, 1] (0: none)."""
     scores = np.asarray(scores, np.float64)
     top = scores.max() if scores.size and scores.max() > 0 else 1.0
     with np.errstate(divide="ignore"):
-        f = np.clip((np.log10(np.maximum(scores, 0) / top) + 4.0) / 4.0, 0.0, 1.0)
+        return np.clip((np.log10(np.maximum(scores, 0) / top) + PRIOR_DECADES) / PRIOR_DECADES, 0.0, 1.0)
+
+
+def face_log_prior(scores: np.ndarray) -> torch.Tensor:
+    """(F,) natural log of score / best, floored ``PRIOR_DECADES`` decades down (the IEN's ``face_prior``)."""
+    return torch.as_tensor((prior_per_face(scores) - 1.0) * PRIOR_DECADES * np.log(10.0), dtype=torch.float32)
+
+
+def prior_per_vertex(mesh: TriMesh, scores: np.ndarray) -> np.ndarray:
+    """(V,) in [0, 1]: per face :func:`prior_per_face`, per vertex the best of its faces."""
+    f = prior_per_face(scores)
     out = np.zeros(len(mesh.vertices))
     for k in range(3):
         np.maximum.at(out, mesh.faces[:, k], f)
@@ -304,9 +320,9 @@ def load_scene_tensors(scene_dir: Path, features: list[str], samples: str = "all
     fwd = fwd / np.linalg.norm(fwd)
     cam = pose[:2, 3]
     origin = region_center(scene_dir)
+    prior = adaptive_prior(str(scene_dir)) if "adaptive" in features else None
     x, edges = graph_inputs(TriMesh(st["los_vertices"], st["los_faces"]), pose, features,
-                            (origin, fwd, region_floor(scene_dir)),
-                            adaptive_prior(str(scene_dir)) if "adaptive" in features else None)
+                            (origin, fwd, region_floor(scene_dir)), prior)
     f32 = lambda a: torch.as_tensor(np.asarray(a), dtype=torch.float32)
     has_flash = bool(zs) and all("flash_nlos" in z for z in zs)
     return SceneTensors(
@@ -323,7 +339,7 @@ def load_scene_tensors(scene_dir: Path, features: list[str], samples: str = "all
         flash_nlos=f32(np.stack([z["flash_nlos"] for z in zs])) if has_flash else None,
         scene_dir=str(scene_dir), stored=torch.from_numpy(stored),
         transport=torch.as_tensor([True] * len(full) + [False] * len(images), dtype=torch.bool),
-        nuisance=nuisances(zs, fwd))
+        nuisance=nuisances(zs, fwd), face_prior=face_log_prior(prior) if prior is not None else None)
 
 
 def nuisances(zs: list[dict], fwd_xy: np.ndarray) -> torch.Tensor | None:

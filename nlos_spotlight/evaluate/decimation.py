@@ -19,7 +19,7 @@ import torch
 from ..lighting import Illumination
 from ..scene.format import TriMesh
 from ..train.checkpoint import TrainedModels
-from ..data.tensors import SceneTensors, graph_inputs, region_floor
+from ..data.tensors import SceneTensors, face_log_prior, graph_inputs, region_floor
 
 RATIOS = tuple(round(0.1 * k, 1) for k in range(1, 11))
 """Decimation ratios of the figure (fraction of the dense mesh's vertices kept)."""
@@ -79,7 +79,8 @@ def choices(models: TrainedModels, s: SceneTensors, ratios=RATIOS) -> list[Decim
             prior = adaptive_scores(load_scene(s.scene_dir), mesh.centroids())
         x, edges = graph_inputs(mesh, pose, models.config.ien_features, region, prior)
         with torch.no_grad():
-            face = int(models.ien(x, edges, torch.as_tensor(mesh.faces, dtype=torch.long)).argmax())
+            face = int(models.ien(x, edges, torch.as_tensor(mesh.faces, dtype=torch.long),
+                                  face_log_prior(prior) if prior is not None else None).argmax())
         c = mesh.vertices[mesh.faces[face]].mean(0)
         d = np.where(ok, np.linalg.norm(aims - c, axis=1), np.inf)
         out.append(DecimatedChoice(r, len(mesh.vertices), int(d.argmin()), float(d.min())))

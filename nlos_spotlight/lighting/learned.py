@@ -30,7 +30,7 @@ class IENPolicy:
         """(T,) logits, -inf where the candidate cannot be used."""
         ok = s.landed if s.stored is None else s.landed & s.stored
         with torch.no_grad():
-            return self.ien(s.x, s.edge_index, s.faces).masked_fill(~ok, float("-inf"))
+            return self.ien(s.x, s.edge_index, s.faces, s.face_prior).masked_fill(~ok, float("-inf"))
 
     def __call__(self, s, scene_dir: Path | None = None, rng=None) -> Illumination:
         return Illumination("spot", int(self.logits(s).argmax()))

@@ -13,7 +13,8 @@ output is invariant to the scan's translation and scale; the face read-out (mean
 three vertices) is invariant to how a face lists its vertices.
 
 Shapes:
-    pos (V, 3), optional extra features (V, C), edge_index (2, E), faces (F, 3) -> logits (F,).
+    pos (V, 3), optional extra features (V, C), edge_index (2, E), faces (F, 3)
+    [, face_prior (F,) with ``prior_weight``] -> logits (F,).
 """
 
 from __future__ import annotations
@@ -36,6 +37,9 @@ class IENConfig:
     """FeaStConv attention heads."""
     layers: int = 3
     """FeaStConv layers."""
+    prior_weight: float = 0.0
+    """Add this times each face's log prior (``face_prior``: the Adaptive Lighting score's log over
+    the best one) to its logit, so the IEN learns a correction of a physics prior; 0: none."""
 
 
 def mlp(sizes: list[int]) -> nn.Sequential:
@@ -81,6 +85,12 @@ class IEN(nn.Module):
             h = torch.relu(feast_conv(conv, h, loops))
         return h
 
-    def forward(self, x: torch.Tensor, edge_index: torch.Tensor, faces: torch.Tensor) -> torch.Tensor:
+    def forward(self, x: torch.Tensor, edge_index: torch.Tensor, faces: torch.Tensor,
+                face_prior: torch.Tensor | None = None) -> torch.Tensor:
         h = self.vertex_features(x, edge_index)[faces]  # (F, 3, hidden)
-        return self.face_head(torch.cat([h.mean(1), h.amax(1)], dim=-1)).squeeze(-1)
+        logits = self.face_head(torch.cat([h.mean(1), h.amax(1)], dim=-1)).squeeze(-1)
+        if self.cfg.prior_weight:
+            if face_prior is None or face_prior.shape != logits.shape:
+                raise ValueError(f"IEN with prior_weight: expected a face prior of shape {tuple(logits.shape)}")
+            logits = logits + self.cfg.prior_weight * face_prior.to(logits.dtype)
+        return logits

@@ -184,7 +184,8 @@ class Trainer:
             edges.append(s.edge_index + offset)
             faces.append(s.faces + offset)
             offset += len(s.x)
-        logits = self.ien_ddp(torch.cat(xs), torch.cat(edges, dim=1), torch.cat(faces))
+        prior = torch.cat([s.face_prior for s in scenes]) if all(s.face_prior is not None for s in scenes) else None
+        logits = self.ien_ddp(torch.cat(xs), torch.cat(edges, dim=1), torch.cat(faces), prior)
         return list(logits.split([len(s.faces) for s in scenes]))
 
     def illuminations(self, scenes: list[SceneTensors], train: bool) -> list[tuple]:
