@@ -7,17 +7,13 @@ validation rooms are a third set of rooms (the train dataset's ``val`` split), e
 policy's spot there, so the best weights are chosen on rooms that are neither trained on nor
 reported.
 
-A run is resumable like ``evaluate.seen.run_seen``: ``result.json`` once finished, ``checkpoint.pt``
-while it trains.
+Training is resumable (``checkpoint.pt``); ``benchmarks/unseen_rooms.py`` keeps each policy's
+scores beside it.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import json
-import os
-import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -28,31 +24,6 @@ from ..lighting import Illumination, policy_rng
 from ..lighting.learned import policy_named
 from ..train.config import TrainConfig
 from ..train.loop import Trainer, _validation_pass
-from .seen import score_rooms
-
-
-@dataclass
-class UnseenResult:
-    """Scores of one run on rooms it never saw."""
-
-    posture_accuracy: float
-    """Six-way accuracy, %."""
-    posture3_accuracy: float
-    """Upright / sitting / crouching accuracy, %."""
-    error_cm: float
-    """Mean localization error, cm."""
-    mean_answer_cm: float
-    """Error of answering the training people's mean position (region frame), cm: the chance level."""
-    confusion: list[list[int]]
-    """6 x 6 counts, rows true posture, columns predicted."""
-    spots: list[int]
-    """Each test room's spot face (-1 for flash or ambient)."""
-    train_rooms: int
-    """Rooms trained on."""
-    steps: int
-    """Optimizer steps taken."""
-    seconds: float
-    """Wall time of training and scoring."""
 
 
 def room_lights(rooms: list[SceneTensors], policy: str, seed: int, ien=None) -> list[Illumination]:
@@ -98,31 +69,6 @@ def train_unseen(cfg: TrainConfig, train_rooms: list[SceneTensors], val_rooms: l
     return tr
 
 
-def run_unseen(cfg: TrainConfig, train_rooms: list[SceneTensors], val_rooms: list[SceneTensors],
-               test_rooms: list[SceneTensors], out: Path, progress: bool = False) -> UnseenResult:
-    """Train (or resume) and score on ``test_rooms`` under ``cfg.policy`` there (fixed policies with
-    the new-room key; 'ien': the run's IEN). Keeps ``result.json`` and the best weights (``best.pt``)."""
-    done = out / "result.json"
-    if done.exists():
-        return UnseenResult(**json.loads(done.read_text()))
-    t0 = time.perf_counter()
-    # validation rooms hold image samples: a policy whose spot they store there (the new-room
-    # random draw and the IEN's choice are not stored), else the oracle
-    val_policy = cfg.policy if cfg.policy in ("oracle", "center", "adaptive") else "oracle"
-    tr = train_unseen(cfg, train_rooms, val_rooms, room_lights(val_rooms, val_policy, cfg.seed), out, progress)
-    lights = room_lights(test_rooms, cfg.policy, cfg.seed, tr.ien)
-    res = score_rooms(tr.net, cfg.net, tr.sensor, test_rooms, as_pairs(test_rooms, lights), cfg.sensor_noise,
-                      cfg.seed)
-    res.pop("per_person"), res.pop("photos")
-    result = UnseenResult(**res, mean_answer_cm=mean_answer(train_rooms, test_rooms), train_rooms=len(train_rooms),
-                          steps=tr.step, seconds=time.perf_counter() - t0)
-    tmp = done.with_name(".result.json.tmp")
-    tmp.write_text(json.dumps(dataclasses.asdict(result), indent=1))
-    os.replace(tmp, done)
-    (out / "checkpoint.pt").unlink(missing_ok=True)
-    return result
-
-
 def snr_fraction(rooms: list[SceneTensors], lights: list[Illumination], sensor: dict | None = None) -> np.ndarray:
     """Per room the SNR of its spot over the best candidate's (``lighting.snr``, the room's stored people)."""
     from ..lighting.snr import candidate_snr
@@ -134,4 +80,4 @@ def snr_fraction(rooms: list[SceneTensors], lights: list[Illumination], sensor: 
     return np.asarray(out)
 
 
-__all__ = ["UnseenResult", "as_pairs", "mean_answer", "room_lights", "run_unseen", "snr_fraction", "train_unseen"]
+__all__ = ["as_pairs", "mean_answer", "room_lights", "snr_fraction", "train_unseen"]
