@@ -28,18 +28,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from nlos_spotlight.data.tensors import load_scene_tensors, split_ids
+from nlos_spotlight.data.tensors import finished_scene_dirs, load_scene_tensors
 from nlos_spotlight.evaluate.unseen import room_lights, snr_fraction
 from nlos_spotlight.models.ien import IENConfig
 from nlos_spotlight.train.config import TrainConfig
 from nlos_spotlight.train.loop import Trainer
-
-
-def room_dirs(data: Path, split: str) -> list[Path]:
-    """Finished rooms of a split in index order (a dataset still being generated gives those done)."""
-    if (data / "manifest.json").exists():
-        return [data / "scenes" / sid for sid in split_ids(data, split)]
-    return sorted(p for p in (data / "scenes").glob(f"{split}-*") if (p / "done.json").exists())
 
 
 def train_ien(rooms, steps: int, seed: int, out: Path, prior_weight: float = 0.0):
@@ -69,13 +62,13 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=Path("docs/results/ien-across-rooms.csv"))
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
-    dirs = {int(d.name.split("-")[-1]): d for d in room_dirs(args.data, "train")}
+    dirs = {int(d.name.split("-")[-1]): d for d in finished_scene_dirs(args.data, "train")}
     want = range(args.train_rooms + (0 if args.test else args.eval_rooms))
     missing = [i for i in want if i not in dirs]
     if missing:  # a fixed set of rooms by index, so that reruns compare on the same rooms
         raise SystemExit(f"rooms {missing[:5]}... of {args.data} are not finished yet")
     train_dirs = [dirs[i] for i in range(args.train_rooms)]
-    eval_dirs = room_dirs(args.test, "test")[:args.eval_rooms or None] if args.test else \
+    eval_dirs = finished_scene_dirs(args.test, "test")[:args.eval_rooms or None] if args.test else \
         [dirs[i] for i in range(args.train_rooms, args.train_rooms + args.eval_rooms)]
     print(f"IEN on {len(train_dirs)} rooms, scored on {len(eval_dirs)} others", flush=True)
     rows = []

@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from nlos_spotlight.data.tensors import load_scene_tensors, split_ids
+from nlos_spotlight.data.tensors import finished_scene_dirs, load_scene_tensors
 from nlos_spotlight.evaluate.seen import score_rooms, seen_config
 from nlos_spotlight.evaluate.unseen import as_pairs, mean_answer, room_lights, snr_fraction, train_unseen
 
@@ -46,15 +46,12 @@ COLUMNS = ["net", "capture", "policy", "train_rooms", "seed", "posture_accuracy"
 
 
 def load_rooms(data: Path, split: str, samples: str, limit: int = 0) -> list:
-    """The split's rooms (the first ``limit``); a dataset still being generated (no manifest yet)
-    gives its finished rooms (``done.json``) in index order."""
-    if (data / "manifest.json").exists():
-        ids = split_ids_or_none(data, split) or []
-    else:
-        ids = sorted(p.name for p in (data / "scenes").glob(f"{split}-*") if (p / "done.json").exists())
-        print(f"{data}: unfinished dataset, {len(ids)} finished {split} rooms so far", flush=True)
-    ids = ids[:limit] if limit else ids
-    return [load_scene_tensors(data / "scenes" / sid, ["normals"], samples) for sid in ids]
+    """The split's rooms (the first ``limit``); on a dataset still being generated, its finished rooms."""
+    dirs = finished_scene_dirs(data, split)
+    if not (data / "manifest.json").exists():
+        print(f"{data}: unfinished dataset, {len(dirs)} finished {split} rooms so far", flush=True)
+    dirs = dirs[:limit] if limit else dirs
+    return [load_scene_tensors(d, ["normals"], samples) for d in dirs]
 
 
 def net_config(args, net: str, rooms: int, seed: int, noise: bool):
@@ -150,15 +147,6 @@ def main() -> None:
                     rows += run(args, net, capture, r, seed, train_all[:r], val, test, policies, lights)
                     write_rows(args.out, rows)
     plot(rows, args.out / "unseen-rooms.png")
-
-
-def split_ids_or_none(data: Path, split: str):
-    from nlos_spotlight.errors import NlosError
-
-    try:
-        return split_ids(data, split)
-    except NlosError:
-        return None
 
 
 def run(args, net, capture, r, seed, train, val, test, policies, lights) -> list[dict]:

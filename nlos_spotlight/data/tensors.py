@@ -362,6 +362,18 @@ def split_ids(data_dir: str | Path, split: str) -> list[str]:
     return ids
 
 
+def finished_scene_dirs(data_dir: str | Path, split: str) -> list[Path]:
+    """A split's scene directories in index order: those of the manifest when the dataset is
+    finished, else the rooms finished so far (``done.json``), so experiments can start on a
+    dataset still being generated; an empty split gives []."""
+    data_dir = Path(data_dir)
+    if (data_dir / "manifest.json").exists():
+        from .store import read_manifest
+
+        return [data_dir / "scenes" / s["id"] for s in read_manifest(data_dir)["splits"].get(split, [])]
+    return sorted(p for p in (data_dir / "scenes").glob(f"{split}-*") if (p / "done.json").exists())
+
+
 def load_split(data_dir: str | Path, split: str, features: list[str],
                keep: Callable[[SceneTensors], SceneTensors] | None = None, samples: str = "all") -> list[SceneTensors]:
     """Every scene of a split; ``keep`` (e.g. a sample subset) is applied as each loads, to bound memory;

@@ -169,6 +169,26 @@ def mean_answer_cm(rooms: list[RoomSplit]) -> float:
     return float(100 * (test - mean).norm(dim=1).mean())
 
 
+def train_validated(tr: Trainer, out: Path, progress: bool = False) -> int:
+    """Train ``tr`` to its last step (or early stop), validating when due and checkpointing then
+    (``out``/checkpoint.pt); returns the steps taken and leaves ``tr`` holding the best weights
+    (``out``/best.pt) where validation kept any."""
+    from ..train.loop import _validation_pass
+
+    stop = tr.stopped_early
+    while tr.step < tr.total_steps and not stop:
+        tr.train_step()
+        if tr.validation_due:
+            stop = _validation_pass(tr, out)
+            tr.save(out / "checkpoint.pt")
+            if progress:
+                print(f"  {out.name}: step {tr.step}/{tr.total_steps} best val {tr.best_val:.3f}", flush=True)
+    steps = tr.step
+    if (out / "best.pt").exists():
+        tr.load(out / "best.pt")
+    return steps
+
+
 def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs: float,
              progress: bool = False, min_steps: int = 0, keep_model: Path | None = None,
              ien_state: dict | None = None, spots: list[int] | None = None) -> SeenResult:
@@ -209,19 +229,7 @@ def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs
         from ..lighting.base import Illumination
 
         tr.fixed = [Illumination("spot", int(f)) for f in spots]
-    from ..train.loop import _validation_pass
-
-    stop = tr.stopped_early
-    while tr.step < tr.total_steps and not stop:
-        tr.train_step()
-        if tr.validation_due:
-            stop = _validation_pass(tr, out)
-            tr.save(ckpt)
-            if progress:
-                print(f"  {out.name}: step {tr.step}/{tr.total_steps} best val {tr.best_val:.3f}", flush=True)
-    steps = tr.step
-    if (out / "best.pt").exists():
-        tr.load(out / "best.pt")
+    steps = train_validated(tr, out, progress)
     if keep_model is not None:
         tr.save(keep_model)
     res = score(tr, rooms, cfg.sensor_noise, cfg.seed)
@@ -241,4 +249,4 @@ def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs
 
 
 __all__ = ["GROUPS", "RoomSplit", "SeenResult", "mean_answer_cm", "run_seen", "score", "score_rooms", "seen_config",
-           "split_room"]
+           "split_room", "train_validated"]

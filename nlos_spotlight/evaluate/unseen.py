@@ -23,7 +23,8 @@ from ..data.tensors import SceneTensors
 from ..lighting import Illumination, policy_rng
 from ..lighting.learned import policy_named
 from ..train.config import TrainConfig
-from ..train.loop import Trainer, _validation_pass
+from ..train.loop import Trainer
+from .seen import train_validated
 
 
 def room_lights(rooms: list[SceneTensors], policy: str, seed: int, ien=None) -> list[Illumination]:
@@ -53,19 +54,9 @@ def train_unseen(cfg: TrainConfig, train_rooms: list[SceneTensors], val_rooms: l
                                                  "val_rooms": len(val_rooms)}, indent=1))
     tr = Trainer(cfg, train_rooms, out, val_scenes=val_rooms or None)
     tr.val_lights = val_lights if val_rooms else None
-    ckpt = out / "checkpoint.pt"
-    if ckpt.exists():
-        tr.load(ckpt)
-    stop = tr.stopped_early
-    while tr.step < tr.total_steps and not stop:
-        tr.train_step()
-        if tr.validation_due:
-            stop = _validation_pass(tr, out)
-            tr.save(ckpt)
-            if progress:
-                print(f"  {out.name}: step {tr.step}/{tr.total_steps} best val {tr.best_val:.3f}", flush=True)
-    if (out / "best.pt").exists():
-        tr.load(out / "best.pt")
+    if (out / "checkpoint.pt").exists():
+        tr.load(out / "checkpoint.pt")
+    train_validated(tr, out, progress)
     return tr
 
 

@@ -128,3 +128,21 @@ def test_auxiliary_nuisance_loss_is_the_facing_and_height_mse(micro_scene, tmp_p
     ph = capture(s, static, y, mode, tr.sensor, None, False, net)
     _, _, aux = tr.net(ph.images, ph.background, ph.clipped, ph.geometry, with_aux=True)
     torch.testing.assert_close(with_aux - base, 2.0 * torch.nn.functional.mse_loss(aux, s.nuisance[static]))
+
+
+def test_finished_scene_dirs_of_a_dataset_finished_or_still_being_generated(micro_scene, tmp_path):
+    """Finished: the manifest's rooms of the split; unfinished (no manifest): the rooms with
+    done.json, in index order; a room still being written is left out."""
+    import shutil
+
+    from nlos_spotlight.data.tensors import finished_scene_dirs, split_ids
+
+    data = micro_scene[0].parent.parent
+    assert [d.name for d in finished_scene_dirs(data, "train")] == split_ids(data, "train")
+    assert finished_scene_dirs(data, "val") == []
+    copy = tmp_path / "d"
+    shutil.copytree(data, copy)
+    (copy / "manifest.json").unlink()
+    first = sorted((copy / "scenes").glob("train-*"))[0]
+    (first / "done.json").unlink()
+    assert [d.name for d in finished_scene_dirs(copy, "train")] == split_ids(data, "train")[1:]
