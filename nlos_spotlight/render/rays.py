@@ -129,22 +129,29 @@ def _offset(p: np.ndarray, toward: np.ndarray, normal: np.ndarray | None) -> np.
     return p + EPS * (side * normal + d)
 
 
-def pair_rays(pa, na, pb, nb, dir_ab, cos_a, cos_b, need=None):
+def pair_rays(pa, na, pb, nb, dir_ab=None, cos_a=None, cos_b=None, need=None):
     """Shadow rays for (a_i, b_j) pairs from torch pair geometry (see ``kernels.pair_geometry``).
 
-    ``need`` (Na, Nb) bool selects the pairs to cast (default all). Returns float32 numpy origins
-    (M, 3), unit directions (M, 3) and lengths (M,), each end pushed off its surface toward the
-    other end; built in torch because this runs per person.
+    ``need`` (Na, Nb) bool selects the pairs to cast (default all). Without ``dir_ab``, ``cos_a``
+    and ``cos_b`` the geometry of the selected pairs is computed here from the points (as
+    ``pair_geometry`` does), so that no (Na, Nb, 3) array need exist. Returns float32 numpy
+    origins (M, 3), unit directions (M, 3) and lengths (M,), each end pushed off its surface
+    toward the other end; built in torch because this runs per person.
     """
     import torch
 
     with torch.no_grad():
         if need is None:
-            need = torch.ones_like(cos_a, dtype=torch.bool)
+            need = torch.ones(len(pa), len(pb), dtype=torch.bool, device=pa.device)
         ia, ib = need.nonzero(as_tuple=True)
-        d_ab = dir_ab[ia, ib]
-        o = pa[ia] + EPS * (torch.sign(cos_a[ia, ib]).unsqueeze(-1) * na[ia] + d_ab)
-        e = pb[ib] + EPS * (torch.sign(cos_b[ia, ib]).unsqueeze(-1) * nb[ib] - d_ab)
+        if dir_ab is None:
+            d = pb[ib] - pa[ia]
+            d_ab = d / (d * d).sum(-1).sqrt().unsqueeze(-1)
+            sa, sb = torch.sign((d_ab * na[ia]).sum(-1)), torch.sign(-(d_ab * nb[ib]).sum(-1))
+        else:
+            d_ab, sa, sb = dir_ab[ia, ib], torch.sign(cos_a[ia, ib]), torch.sign(cos_b[ia, ib])
+        o = pa[ia] + EPS * (sa.unsqueeze(-1) * na[ia] + d_ab)
+        e = pb[ib] + EPS * (sb.unsqueeze(-1) * nb[ib] - d_ab)
         d = (e - o).float()
         length = d.norm(dim=1)
         d = d / length.clamp(min=1e-30).unsqueeze(1)

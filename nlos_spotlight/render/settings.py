@@ -22,6 +22,8 @@ class RenderSettings:
     """Receiver rows per block in the pair kernels (bounds memory)."""
     dtype: str = "float32"
     """torch dtype name for everything after ray casting ('float64' for gradcheck)."""
+    fuse: bool = False
+    """Compile the per-person pair kernels with torch.compile (``render/fused.py``; no-gradient calls only)."""
     device: str = "auto"
     """'cpu', 'cuda' or 'auto' (cuda when available)."""
 

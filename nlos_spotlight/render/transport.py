@@ -27,7 +27,8 @@ import torch
 
 from ..errors import NlosError
 from ..scene.format import Scene
-from .brdf import brdf, ggx_d, smith_g1, COS_EPS
+from .brdf import brdf
+from .fused import pair_kernels
 from .camera import pixel_rays
 from .kernels import pair_geometry
 from .person import Person, as_translation
@@ -83,6 +84,7 @@ class Renderer:
         self.device = torch.device("cuda" if s.device == "auto" and torch.cuda.is_available()
                                    else ("cpu" if s.device == "auto" else s.device))
         self.dtype = getattr(torch, s.dtype)
+        self.kernels = pair_kernels(s.fuse)
         self.static = StaticSurfaces(scene)
         self.aim_points = self.static.mesh.centroids() if aim_points is None else np.atleast_2d(aim_points)
         self.num_spots = len(self.aim_points)
@@ -130,6 +132,7 @@ class Renderer:
         self.spot_flux = self._t(flux[hit])
         to_p = pr.position - surf.pos
         self.spot_to_proj = self._t(to_p / np.linalg.norm(to_p, axis=1, keepdims=True))
+        self.spot_glossy = torch.as_tensor(surf.glossy, device=self.device)
         self.spot_landed = np.bincount(owner[hit], minlength=self.num_spots) > 0
         if not self.spot_landed.any():
             raise NlosError("projector: aimed at nothing (no projector ray reaches a surface)")
@@ -192,7 +195,7 @@ class Renderer:
         batched = translation is not None and torch.as_tensor(translation).dim() == 2
         out = RenderOutput()
         if "direct" in components:
-            out.components["direct"] = torch.einsum("ptc,t->pc", self.D, y).reshape(*self.shape, 3)
+            out.components["direct"] = self._direct(y)
         if "interreflection" in components:
             out.components["interreflection"] = self._interreflection(y)
         if "ambient" in components:
@@ -207,6 +210,13 @@ class Renderer:
                 if v.dim() == 3:
                     out.components[k] = v.unsqueeze(0).expand(b, -1, -1, -1)
         return out
+
+    def _direct(self, y: torch.Tensor) -> torch.Tensor:
+        """D y as (H, W, 3); without a gradient, over y's support only (a one-hot y reads one column)."""
+        if y.requires_grad:
+            return torch.einsum("ptc,t->pc", self.D, y).reshape(*self.shape, 3)
+        sup = torch.nonzero(y).flatten()
+        return torch.einsum("ptc,t->pc", self.D[:, sup], y[sup]).reshape(*self.shape, 3)
 
     def _active(self, y: torch.Tensor) -> torch.Tensor:
         """Indices of spot samples whose candidate matters: all if y needs a gradient, else y's support."""
@@ -228,7 +238,7 @@ class Renderer:
             seen = (r.pts["normal"][sl] * r.to_cam[sl]).sum(-1)
             need = (geo.cos_a * lit > 0) & (geo.cos_b * seen > 0)
             vis = self._visible(self.static.engine, src["pos"], src["normal"], r.pts["pos"][sl],
-                                r.pts["normal"][sl], geo, need)
+                                r.pts["normal"][sl], need, geo)
             f_src = brdf(src["normal"].unsqueeze(1), self.spot_to_proj[idx].unsqueeze(1), geo.dir_ab,
                          src["kd"].unsqueeze(1), src["ks"].unsqueeze(1), src["alpha"].unsqueeze(1))
             f_rec = brdf(r.pts["normal"][sl].unsqueeze(0), -geo.dir_ab, r.to_cam[sl].unsqueeze(0),
@@ -236,15 +246,17 @@ class Renderer:
             out[sl] = (f_src * f_rec * (geo.g * vis).unsqueeze(-1) * w.unsqueeze(1)).sum(0)
         return self._pixels(out, r)
 
-    def _visible(self, rays, pa, na, pb, nb, geo, need: torch.Tensor) -> torch.Tensor:
+    def _visible(self, rays, pa, na, pb, nb, need: torch.Tensor, geo=None) -> torch.Tensor:
         """(Na, Nb) 0/1 mutual visibility (held fixed under autograd); rays only for ``need`` pairs.
 
         Pairs whose transport weight is zero anyway (light on the wrong side of a surface, or the
-        inside of a closed body) are left at 0 without casting a ray.
+        inside of a closed body) are left at 0 without casting a ray. ``geo``: the pairs' geometry
+        if already computed (else the rays are built from the points).
         """
-        vis = torch.zeros(geo.cos_a.shape, device=self.device, dtype=self.dtype)
+        vis = torch.zeros(need.shape, device=self.device, dtype=self.dtype)
         if need.any():
-            occ = rays.occluded_rays(*pair_rays(pa, na, pb, nb, geo.dir_ab, geo.cos_a, geo.cos_b, need))
+            dirs = (geo.dir_ab, geo.cos_a, geo.cos_b) if geo is not None else (None, None, None)
+            occ = rays.occluded_rays(*pair_rays(pa, na, pb, nb, *dirs, need))
             vis[need] = self._t(~occ)
         return vis
 
@@ -301,21 +313,21 @@ class Renderer:
             groups = self.num_spots if per_spot else 1
         lf = torch.zeros(groups, len(o), 3, device=self.device, dtype=self.dtype)
         lb = torch.zeros_like(lf)
-        for a in range(0, len(idx), self.settings.chunk):
-            ii = idx[a:a + self.settings.chunk]
+        glossy = self.spot_glossy[idx]
+        # diffuse spot samples skip the GGX lobe: exact (ks = 0) and most of the pair work
+        for ii in (c for part in (idx[~glossy], idx[glossy]) if len(part)
+                   for c in torch.split(part, self.settings.chunk)):
+            gl = bool(self.spot_glossy[ii[0]])
             src = {k: v[ii] for k, v in self.spot_pts.items()}
             w = self.spot_flux[ii] if per_spot else self.spot_flux[ii] * y[self.spot_owner[ii]].unsqueeze(-1)
-            geo = pair_geometry(src["pos"], src["normal"], o, pts["normal"])
             lit = (src["normal"] * self.spot_to_proj[ii]).sum(-1, keepdim=True)
-            need = (geo.cos_a * lit > 0) & ((geo.cos_b > 0) | (not person.closed))
-            vis = self._visible(rays, src["pos"], src["normal"], o, pts["normal"], geo, need)
-            f = brdf(src["normal"].unsqueeze(1), self.spot_to_proj[ii].unsqueeze(1), geo.dir_ab,
-                     src["kd"].unsqueeze(1), src["ks"].unsqueeze(1), src["alpha"].unsqueeze(1))
-            e = f * (geo.g * vis).unsqueeze(-1) * w.unsqueeze(1)
-            side = (geo.cos_b > 0).to(self.dtype).unsqueeze(-1)
+            need = self.kernels("radiosity_need", src["pos"], src["normal"], lit, o, pts["normal"], person.closed)
+            vis = self._visible(rays, src["pos"], src["normal"], o, pts["normal"], need)
             group = owner[ii] if per_spot else torch.zeros_like(ii)
-            lf = lf.index_add(0, group, e * side)
-            lb = lb.index_add(0, group, e * (1 - side))
+            f, b = self.kernels("radiosity", src["pos"], src["normal"], self.spot_to_proj[ii], src["kd"],
+                                src["ks"] if gl else None, src["alpha"] if gl else None, o, pts["normal"], vis, w,
+                                group, groups)
+            lf, lb = lf + f, lb + b
         scale = (pts["albedo"] / math.pi).unsqueeze(1)  # (N, 1, 3)
         lf, lb = lf.transpose(0, 1) * scale, lb.transpose(0, 1) * scale  # (N, groups, 3)
         return lf.reshape(len(o), -1), lb.reshape(len(o), -1)
@@ -369,34 +381,18 @@ class Renderer:
         wa = pts["area"]
         for a in range(0, len(r.pixel), self.settings.chunk):
             sl = slice(a, a + self.settings.chunk)
-            geo = pair_geometry(r.pts["pos"][sl], r.pts["normal"][sl], o, pts["normal"])
-            cos_c = (r.pts["normal"][sl] * r.to_cam[sl]).sum(-1, keepdim=True)
-            need = (geo.cos_a * cos_c > 0) & ((geo.cos_b > 0) | (not person.closed))
-            vis = self._visible(rays, r.pts["pos"][sl], r.pts["normal"][sl], o, pts["normal"], geo, need)
-            same = need.to(self.dtype)
-            w = same * geo.g * vis * wa
-            side = (geo.cos_b > 0).to(self.dtype)
-            wf, wb = w * side, w * (1 - side)
+            rp, rn = r.pts["pos"][sl], r.pts["normal"][sl]
+            cos_c = (rn * r.to_cam[sl]).sum(-1, keepdim=True)
+            need = self.kernels("gather_need", rp, rn, cos_c, o, pts["normal"], person.closed)
+            vis = self._visible(rays, rp, rn, o, pts["normal"], need)
+            wf, wb = self.kernels("gather_weights", rp, rn, o, pts["normal"], vis, wa)
             rad = r.pts["kd"][sl].repeat(1, front.shape[1] // 3) / math.pi * (wf @ front + wb @ back)
             gl = r.glossy[sl]
             if gl.any():
+                spec = self.kernels("glossy_lobe", rp[gl], rn[gl], r.to_cam[sl][gl], cos_c[gl], r.pts["alpha"][sl][gl],
+                                    o, pts["normal"])
+                ks = r.pts["ks"][sl][gl].repeat(1, front.shape[1] // 3)
                 rad = rad.clone()
-                rad[gl] = rad[gl] + self._glossy(geo, r, sl, gl, cos_c, wf, wb, front, back)
+                rad[gl] = rad[gl] + ks * ((wf[gl] * spec) @ front + (wb[gl] * spec) @ back)
             out[sl] = rad
         return self._pixels(out, r)
-
-    def _glossy(self, geo, r, sl, gl, cos_c, wf, wb, front, back) -> torch.Tensor:
-        """The GGX part of f_p for glossy receivers, as a weight on the same pair sums."""
-        n = r.pts["normal"][sl][gl].unsqueeze(1)
-        wi = geo.dir_ab[gl]
-        wo = r.to_cam[sl][gl].unsqueeze(1)
-        alpha = r.pts["alpha"][sl][gl].unsqueeze(1)
-        h = wi + wo
-        h = h / h.norm(dim=-1, keepdim=True).clamp(min=1e-12)
-        cos_i, cos_o = geo.cos_a[gl], cos_c[gl]
-        spec = ggx_d((n * h).sum(-1).abs(), alpha) * smith_g1(cos_i, alpha) * smith_g1(cos_o, alpha)
-        spec = spec / (4 * cos_i.abs().clamp(min=COS_EPS) * cos_o.abs().clamp(min=COS_EPS))
-        ks = r.pts["ks"][sl][gl].repeat(1, front.shape[1] // 3)
-        return ks * ((wf[gl] * spec) @ front + (wb[gl] * spec) @ back)
-
-
