@@ -22,7 +22,8 @@ posture3_accuracy,error_cm,mean_answer_cm,steps,seconds``), ``--out``/spot-snr.c
 the learning curve over rooms. Resumable: every run keeps its weights and scores in ``--runs``.
 
     python benchmarks/unseen_rooms.py --train out/unseen/train --test out/unseen/test \\
-        [--rooms 25,50,100,200] [--nets image,geometry] [--policies oracle,adaptive,center,random] [--ien]
+        [--rooms 25,50,100,200] [--nets image,geometry] [--policies oracle,adaptive,center,random] [--ien] \
+        [--epochs 40 | --steps 2400]
 """
 
 from __future__ import annotations
@@ -110,6 +111,8 @@ def main() -> None:
     ap.add_argument("--ien", action="store_true", help="train the IEN across rooms and score its spot too")
     ap.add_argument("--ien-steps", type=int, default=2000)
     ap.add_argument("--epochs", type=float, default=40.0, help="passes over the training people")
+    ap.add_argument("--steps", type=int, default=0,
+                    help="steps per run whatever the rooms (the same budget at every point of the curve); 0: --epochs")
     ap.add_argument("--seeds", type=int, default=1)
     ap.add_argument("--batch", type=int, default=64)
     ap.add_argument("--scenes-per-step", type=int, default=16, help="rooms mixed in each batch")
@@ -154,7 +157,7 @@ def run(args, net, capture, r, seed, train, val, test, policies, lights) -> list
     cfg = net_config(args, net, r, seed, noise)
     people = sum(s.num_samples for s in train)
     per_epoch = max(1, people // cfg.batch_size)
-    steps = max(1, round(args.epochs * per_epoch))
+    steps = args.steps or max(1, round(args.epochs * per_epoch))
     every = args.val_every or max(per_epoch, steps // 25)
     cfg = dataclasses.replace(cfg, steps=steps, eval_every=every, ckpt_every=every, log_every=every)
     out = args.runs / f"{capture}-{net}-{r}rooms-s{seed}"

@@ -106,7 +106,7 @@ def cmd_generate(args: argparse.Namespace) -> None:
         if args.seed < 0:
             raise NlosError(f"--seed: expected a non-negative integer, got {args.seed}")
         cfg.seed = args.seed
-    rec = generate(cfg, output_dir(args.out, "--out"), _shard(args.shard), progress=not args.quiet)
+    rec = generate(cfg, output_dir(args.out, "--out"), _shard(args.shard), progress=not args.quiet, fuse=args.fuse)
     manifest = Path(args.out) / "manifest.json"
     state = f"complete: {manifest}" if manifest.exists() else "other shards pending (manifest written by the last)"
     console.print(f"shard {rec['shard']}: {len(rec['scenes'])} scenes in {rec['seconds']:.1f} s; dataset {state}")
@@ -302,6 +302,9 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--shard", default="0/1", help="I/N: build scenes whose index is I mod N")
     g.add_argument("--seed", type=int, help="override the config's master seed")
     g.add_argument("--quiet", action="store_true", help="no progress bar (also NLOS_QUIET=1 or CI=true)")
+    g.add_argument("--fuse", action="store_true",
+                   help="compile the per-person pair kernels (torch.compile): same data, ~2.5x faster people at "
+                        "thousands of body samples, ~30 s to compile")
     g.set_defaults(func=cmd_generate)
     v = sub.add_parser("verify", help="check a dataset: every file's digest and every array's shape")
     v.add_argument("data_dir", help="dataset directory from nlos generate")

@@ -50,8 +50,8 @@ def low_rank(f: torch.Tensor, rank: int) -> tuple[np.ndarray, np.ndarray, float]
 class SceneBuilder:
     """Deterministic construction of one scene directory; resumes at the first missing sample."""
 
-    def __init__(self, cfg: DatasetConfig, plan, out: Path):
-        self.cfg, self.plan, self.out = cfg, plan, Path(out)
+    def __init__(self, cfg: DatasetConfig, plan, out: Path, fuse: bool = False):
+        self.cfg, self.plan, self.out, self.fuse = cfg, plan, Path(out), fuse
         self.dir = self.out / "scenes" / plan.id
 
     def build(self, advance, part: tuple[int, int] = (0, 1)) -> None:
@@ -76,7 +76,7 @@ class SceneBuilder:
         settings = RenderSettings(pixel_samples=self.cfg.pixel_samples,
                                   transport_pixel_samples=self.cfg.transport_pixel_samples,
                                   spot_samples=self.cfg.spot_samples, person_samples=self.cfg.person_samples,
-                                  device="cpu")
+                                  fuse=self.fuse, device="cpu")
         renderer = Renderer(scene, settings, aim_points=los.centroids())
         flash = Renderer(flash_scene(scene), dataclasses.replace(settings, spot_samples=settings.spot_samples
                                                                  * FLASH_SPOT_SAMPLES),
