@@ -46,13 +46,13 @@ COLUMNS = ["net", "capture", "policy", "train_rooms", "seed", "posture_accuracy"
            "mean_answer_cm", "steps", "seconds"]
 
 
-def load_rooms(data: Path, split: str, samples: str, limit: int = 0) -> list:
+def load_rooms(data: Path, split: str, samples: str, limit: int = 0, features: tuple = ("normals",)) -> list:
     """The split's rooms (the first ``limit``); on a dataset still being generated, its finished rooms."""
     dirs = finished_scene_dirs(data, split)
     if not (data / "manifest.json").exists():
         print(f"{data}: unfinished dataset, {len(dirs)} finished {split} rooms so far", flush=True)
     dirs = dirs[:limit] if limit else dirs
-    return [load_scene_tensors(d, ["normals"], samples) for d in dirs]
+    return [load_scene_tensors(d, list(features), samples) for d in dirs]
 
 
 def net_config(args, net: str, rooms: int, seed: int, noise: bool):
@@ -64,12 +64,14 @@ def net_config(args, net: str, rooms: int, seed: int, noise: bool):
 
 def train_ien(args, rooms: list, out: Path):
     """The IEN trained on its SNR target across ``rooms`` (their full-transport people)."""
+    from nlos_spotlight.models.ien import IENConfig
     from nlos_spotlight.train.config import TrainConfig
     from nlos_spotlight.train.loop import Trainer
 
     path = out / "ien.pt"
     cfg = TrainConfig(name="unseen-ien", seed=0, policy="ien", spot_steps=args.ien_steps, steps=1, snr_weight=1.0,
-                      scenes_per_step=min(len(rooms), 8), batch_size=8, device="auto")
+                      scenes_per_step=min(len(rooms), 8), batch_size=8, device="auto",
+                      ien=IENConfig(prior_weight=args.ien_prior_weight))
     tr = Trainer(cfg, rooms, out)
     if path.exists():
         tr.ien.load_state_dict(torch.load(path, weights_only=True))
@@ -110,6 +112,10 @@ def main() -> None:
                     help="sample kind of the test rooms: transport (any spot) or images (stored spots only)")
     ap.add_argument("--ien", action="store_true", help="train the IEN across rooms and score its spot too")
     ap.add_argument("--ien-steps", type=int, default=2000)
+    ap.add_argument("--ien-features", default="normals",
+                    help="the IEN's vertex features (benchmarks/ien_across_rooms.py), e.g. normals,adaptive")
+    ap.add_argument("--ien-prior-weight", type=float, default=0.0,
+                    help="with 'adaptive' features: this times the log prior in the IEN's logits")
     ap.add_argument("--epochs", type=float, default=40.0, help="passes over the training people")
     ap.add_argument("--steps", type=int, default=0,
                     help="steps per run whatever the rooms (the same budget at every point of the curve); 0: --epochs")
@@ -129,8 +135,9 @@ def main() -> None:
     train_all = load_rooms(args.train, "train", "images", max(sizes))
     sizes = [r for r in sizes if r <= len(train_all)] or [len(train_all)]
     val = load_rooms(args.train, "val", "images")
+    feats = tuple(f for f in args.ien_features.split(",") if f) if args.ien else ("normals",)
     test = load_rooms(args.test, args.test_split, args.test_samples,
-                      args.test_offset + args.test_rooms if args.test_rooms else 0)
+                      args.test_offset + args.test_rooms if args.test_rooms else 0, feats)
     test = test[args.test_offset:]
     if args.test == args.train and args.test_split == "train" and args.test_offset < max(sizes):
         raise SystemExit("--test-offset: the test rooms must come after every training room")
@@ -138,7 +145,9 @@ def main() -> None:
           f"({sum(s.num_samples for s in test)} test people)", flush=True)
     lights = {p: room_lights(test, p, 0) for p in policies}
     if args.ien:
-        ien = train_ien(args, load_rooms(args.train, "train", "transport", max(sizes)), args.runs / "ien")
+        tag = "-".join(feats) + (f"-prior{args.ien_prior_weight:g}" if args.ien_prior_weight else "")
+        ien = train_ien(args, load_rooms(args.train, "train", "transport", max(sizes), feats),
+                        args.runs / f"ien-{tag}-{args.ien_steps}steps")
         lights["ien"] = room_lights(test, "ien", 0, ien)
         policies.append("ien")
     write_snr(args, test, lights)
