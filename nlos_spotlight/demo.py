@@ -92,7 +92,7 @@ def render_example(out: Path, seed: int) -> None:
     summary = {}
     for name, img in list(res.components.items()) + [("total", res.image), ("sensor", noisy.radiance)]:
         a = img.numpy()
-        save_png(a, out / f"{name}.png", signed=name == "nlos_ambient")
+        save_png(a, out / f"{name}.png", signed=name in ("nlos_ambient", "nlos_shadow"))
         np.save(out / f"{name}.npy", a.astype(np.float32))
         summary[name] = {"sum": float(a.sum()), "max": float(np.abs(a).max()), "mean": float(a.mean())}
     _overview(out, ["direct", "ambient", "nlos", "nlos_ambient", "total", "sensor"])

@@ -120,15 +120,17 @@ def mitsuba_nlos(scene: Scene, aim_point: np.ndarray, spp: int, seed: int = 0, m
     the ``nlos`` component does not model.
     ``scatter``: the person minus a perfectly black person of the same shape: exactly the paths that
     scatter off the body, i.e. the three-bounce ``nlos`` integral when the body is hidden.
+    ``blocked``: the black person minus no person: the light the body stops (``nlos_shadow``).
+    presence = scatter + blocked.
     """
-    with_p = render_mitsuba(to_mitsuba(scene, aim_point, True, max_depth), spp, seed)
-    if protocol == "presence":
-        base = to_mitsuba(scene, aim_point, False, max_depth)
-    elif protocol == "scatter":
-        base = to_mitsuba(scene, aim_point, True, max_depth, person_albedo=np.zeros(3))
-    else:
+    black = dict(person_albedo=np.zeros(3))
+    pairs = {"presence": ((True, {}), (False, {})), "scatter": ((True, {}), (True, black)),
+             "blocked": ((True, black), (False, {}))}
+    if protocol not in pairs:
         raise ValueError(f"unknown protocol {protocol!r}")
-    return with_p - render_mitsuba(base, spp, seed)
+    (pa, ka), (pb, kb) = pairs[protocol]
+    return (render_mitsuba(to_mitsuba(scene, aim_point, pa, max_depth, **ka), spp, seed)
+            - render_mitsuba(to_mitsuba(scene, aim_point, pb, max_depth, **kb), spp, seed))
 
 
 def mitsuba_direct(scene: Scene, aim_point: np.ndarray, spp: int, seed: int = 0) -> np.ndarray:

@@ -18,6 +18,8 @@ class RenderSettings:
     """Projector rays per candidate spot (equal solid angle)."""
     person_samples: int = 512
     """Area samples on the body."""
+    shadow_samples: int = 4096
+    """Area samples of the static surfaces relaying the spot light the person blocks (``nlos_shadow``)."""
     chunk: int = 2048
     """Receiver rows per block in the pair kernels (bounds memory)."""
     dtype: str = "float32"

@@ -14,7 +14,9 @@ y and differentiable with respect to y and the person's translation (the
 visibility masks are held fixed, as in any renderer without edge sampling).
 Visibility is Embree: static geometry plus the posed body, so limbs occlude
 too. The person is assumed outside the camera's and the projector's direct
-view (the NLOS setting): it shapes the ``nlos`` and ``nlos_ambient`` terms only.
+view (the NLOS setting): it shapes the ``nlos`` and ``nlos_ambient`` terms only, and, on
+request, ``nlos_shadow``: the spot light it blocks on one static bounce (:mod:`.shadow`), which a
+photograph with the person minus one without also holds.
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ from .spot import cone_directions, spot_profile
 from .settings import RENDER_PRESETS, RenderSettings  # noqa: F401  (re-exported beside the renderer)
 from .surface import StaticSurfaces, SurfacePoints
 
-COMPONENTS = ("direct", "interreflection", "ambient", "nlos", "nlos_ambient")
+COMPONENTS = ("direct", "interreflection", "ambient", "nlos", "nlos_ambient", "nlos_shadow")
 DEFAULT_COMPONENTS = ("direct", "ambient", "nlos", "nlos_ambient")
 
 
@@ -200,6 +202,8 @@ class Renderer:
             out.components["interreflection"] = self._interreflection(y)
         if "ambient" in components:
             out.components["ambient"] = self.ambient_image
+        if "nlos_shadow" in components:
+            out.components["nlos_shadow"] = self._shadow(y, person, translation)
         want = [c for c in ("nlos", "nlos_ambient") if c in components]
         if want:
             per = self._person_terms(y, person, translation, want)
@@ -217,6 +221,20 @@ class Renderer:
             return torch.einsum("ptc,t->pc", self.D, y).reshape(*self.shape, 3)
         sup = torch.nonzero(y).flatten()
         return torch.einsum("ptc,t->pc", self.D[:, sup], y[sup]).reshape(*self.shape, 3)
+
+    def _shadow(self, y: torch.Tensor, person: Person | None, translation) -> torch.Tensor:
+        """``nlos_shadow``: the spot light the body blocks on one static bounce (``render/shadow.py``)."""
+        if person is None:
+            return torch.zeros(*self.shape, 3, device=self.device, dtype=self.dtype)
+        from .shadow import SpotShadow
+
+        if getattr(self, "_spot_shadow", None) is None:
+            self._spot_shadow = SpotShadow(self)
+        batched = translation is not None and torch.as_tensor(translation).dim() == 2
+        t = as_translation(translation, torch.as_tensor(translation).shape[0] if batched else 1, self.device,
+                           self.dtype)
+        imgs = [self._spot_shadow.image(y, person, tb) for tb in t]
+        return torch.stack(imgs) if batched else imgs[0]
 
     def _active(self, y: torch.Tensor) -> torch.Tensor:
         """Indices of spot samples whose candidate matters: all if y needs a gradient, else y's support."""

@@ -1,0 +1,141 @@
+"""The spot's light that the person blocks: the ``nlos_shadow`` component.
+
+A photograph with the person minus one without holds, besides the light the body scatters
+(``nlos``), the light it stops: spot light relayed by one static point h (the hidden floor, the
+partition's back) toward a visible point x_p, blocked by the body on x_s -> h or on h -> x_p
+(P -> x_s -> h -> x_p -> C). With V_S the static visibility and V_H the body's,
+
+    L_p = - sum_h f_p(h -> x_p -> C) G(h, x_p) V_S(h, x_p) A_h rho_h / pi
+              [E_blk(h) + (E(h) - E_blk(h)) (1 - V_H(h, x_p))],
+    E(h)     = sum_s f_s(P -> x_s -> h) w_s G(x_s, h) V_S(x_s, h),
+    E_blk(h) = sum_s f_s(P -> x_s -> h) w_s G(x_s, h) V_S(x_s, h) (1 - V_H(x_s, h)),
+
+(1 - V_H V_H' = (1 - V_H) + V_H (1 - V_H')). Only a segment that crosses the body's bounding box
+can be blocked, so body rays are cast only there, and only the points h with blocked light or
+with a crossing segment toward the camera's points enter the sums.
+
+Approximations, each small where this term matters: h is ``shadow_samples`` stratified area
+samples of all static surfaces; h reflects as a Lambertian of albedo kd + ks (the hidden
+surfaces of the reference scenes are diffuse, where this is exact); the body's shadow on direct
+LOS-LOS paths (``interreflection``) is left out (zero on a planar relay wall). The term depends
+on the person's position only through visibility, so it has no gradient with respect to it.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+import torch
+
+from .brdf import brdf
+from .fused import glossy_lobe
+from .kernels import pair_geometry
+from .person import Person, monte_carlo
+from .rays import EPS, RayEngine, pair_rays
+
+if TYPE_CHECKING:
+    from .transport import Renderer
+
+
+def segments_cross_box(a: torch.Tensor, b: torch.Tensor, lo: torch.Tensor, hi: torch.Tensor) -> torch.Tensor:
+    """(Na, Nb) bool: the segment a_i -> b_j meets the axis-aligned box [lo, hi] (slab test)."""
+    d = b.unsqueeze(0) - a.unsqueeze(1)
+    d = torch.where(d.abs() < 1e-12, torch.full_like(d, 1e-12), d)
+    t0, t1 = (lo - a.unsqueeze(1)) / d, (hi - a.unsqueeze(1)) / d
+    near = torch.minimum(t0, t1).amax(-1).clamp(min=0)
+    far = torch.maximum(t0, t1).amin(-1).clamp(max=1)
+    return near <= far
+
+
+def two_sided(m: torch.Tensor, side: torch.Tensor, light: torch.Tensor) -> torch.Tensor:
+    """(P, 3): weights m (P, K) on the radiance light (2, K, 3) of each h's front [0] and back [1] side."""
+    return (m * side) @ light[0] + (m * (1 - side)) @ light[1]
+
+
+class SpotShadow:
+    """Static sample points h of a renderer's scene and the blocked light through them."""
+
+    def __init__(self, r: "Renderer"):
+        self.r = r
+        face, bary, area = monte_carlo(r.static.mesh.face_areas(), r.settings.shadow_samples)
+        self.h = r.static.shade(face, bary).torch(r.device, r.dtype)
+        self.area = r._t(area)
+        self.rho = (self.h["kd"] + self.h["ks"]) / math.pi
+
+    def image(self, y: torch.Tensor, person: Person, t: torch.Tensor) -> torch.Tensor:
+        """(H, W, 3) ``nlos_shadow`` (negative) of spot vector ``y`` and the body moved by ``t``."""
+        r, h = self.r, self.h
+        t_np = t.detach().cpu().numpy().astype(np.float64)
+        verts = person.mesh.vertices + t_np
+        body = RayEngine(verts, person.mesh.faces)
+        lo, hi = r._t(verts.min(0) - 4 * EPS), r._t(verts.max(0) + 4 * EPS)
+        idx = r._active(y)
+        src = {k: v[idx] for k, v in r.spot_pts.items()}
+        w = r.spot_flux[idx] * y[r.spot_owner[idx]].unsqueeze(-1)
+        to_proj = r.spot_to_proj[idx]
+        lit = (src["normal"] * to_proj).sum(-1, keepdim=True)
+        rec = r.recv_t
+        cos_c = (rec.pts["normal"] * rec.to_cam).sum(-1, keepdim=True)
+        # which h matter: a blocked first leg, or a second leg toward a camera point through the box
+        geo1 = pair_geometry(src["pos"], src["normal"], h["pos"], h["normal"])
+        need1 = geo1.cos_a * lit > 0
+        cross1 = need1 & segments_cross_box(src["pos"], h["pos"], lo, hi)
+        cross2 = torch.zeros(len(h["pos"]), dtype=torch.bool, device=r.device)
+        for a in range(0, len(rec.pixel), r.settings.chunk):
+            sl = slice(a, a + r.settings.chunk)
+            cross2 |= segments_cross_box(rec.pts["pos"][sl], h["pos"], lo, hi).any(0)
+        keep = torch.nonzero(cross1.any(0) | cross2).flatten()
+        if len(keep) == 0:
+            return torch.zeros(*r.shape, 3, device=r.device, dtype=r.dtype)
+        hk = {k: v[keep] for k, v in h.items()}
+        # first leg: irradiance at the kept h, and its part the body blocks
+        n1 = need1[:, keep]
+        vs = r._visible(r.static.engine, src["pos"], src["normal"], hk["pos"], hk["normal"], n1)
+        f = brdf(src["normal"].unsqueeze(1), to_proj.unsqueeze(1), geo1.dir_ab[:, keep], src["kd"].unsqueeze(1),
+                 src["ks"].unsqueeze(1), src["alpha"].unsqueeze(1))
+        c = f * (geo1.g[:, keep] * vs).unsqueeze(-1) * w.unsqueeze(1)  # (S, K, 3)
+        blocked1 = self._body_blocks(body, src["pos"], src["normal"], hk["pos"], hk["normal"],
+                                     cross1[:, keep] & (vs > 0))
+        rho = self.rho[keep]
+        front = (geo1.cos_b[:, keep] > 0).to(r.dtype).unsqueeze(-1)  # h is two-sided: light leaves the side it came in
+        c_sides = torch.stack([c * front, c * (1 - front)])  # (2, S, K, 3)
+        l_blk = rho * (c_sides * blocked1.unsqueeze(-1)).sum(1)  # (2, K, 3) radiance of h the body takes away
+        l_rest = rho * c_sides.sum(1) - l_blk  # what still reaches h, which the body may block on the way out
+        out = torch.zeros(len(rec.pixel), 3, device=r.device, dtype=r.dtype)
+        ak = self.area[keep]
+        for a in range(0, len(rec.pixel), r.settings.chunk):
+            sl = slice(a, a + r.settings.chunk)
+            out[sl] = self._second_leg(body, rec, sl, cos_c[sl], hk, ak, l_blk, l_rest, lo, hi)
+        return -r._pixels(out, rec)
+
+    def _second_leg(self, body, rec, sl, cos_c, hk, ak, l_blk, l_rest, lo, hi) -> torch.Tensor:
+        """(P, 3) radiance toward the camera from camera points ``sl`` of the light the body stops."""
+        r = self.r
+        rp, rn = rec.pts["pos"][sl], rec.pts["normal"][sl]
+        geo = pair_geometry(rp, rn, hk["pos"], hk["normal"])
+        need = geo.cos_a * cos_c > 0
+        # rays only where some light is lost: h with blocked light, or a leg through the body's box
+        cross = need & segments_cross_box(rp, hk["pos"], lo, hi)
+        need = need & ((l_blk.sum((0, 2)) > 0).unsqueeze(0) | cross)
+        vs = r._visible(r.static.engine, rp, rn, hk["pos"], hk["normal"], need)
+        wgt = geo.g * vs * ak
+        lost = wgt * self._body_blocks(body, rp, rn, hk["pos"], hk["normal"], cross & (vs > 0))
+        side = (geo.cos_b > 0).to(r.dtype)  # the side of h that faces x_p
+        rad = rec.pts["kd"][sl] / math.pi * (two_sided(wgt, side, l_blk) + two_sided(lost, side, l_rest))
+        gl = rec.glossy[sl]
+        if gl.any():
+            spec = glossy_lobe(rp[gl], rn[gl], rec.to_cam[sl][gl], cos_c[gl], rec.pts["alpha"][sl][gl],
+                               hk["pos"], hk["normal"])
+            rad = rad.clone()
+            rad[gl] = rad[gl] + rec.pts["ks"][sl][gl] * (two_sided(wgt[gl] * spec, side[gl], l_blk)
+                                                         + two_sided(lost[gl] * spec, side[gl], l_rest))
+        return rad
+
+    def _body_blocks(self, body: RayEngine, pa, na, pb, nb, sel: torch.Tensor) -> torch.Tensor:
+        """(Na, Nb) 1 where the body blocks the pair's segment (rays only for ``sel``), else 0."""
+        out = torch.zeros(sel.shape, device=self.r.device, dtype=self.r.dtype)
+        if sel.any():
+            out[sel] = self.r._t(body.occluded_rays(*pair_rays(pa, na, pb, nb, need=sel)))
+        return out

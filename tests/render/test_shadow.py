@@ -1,0 +1,42 @@
+"""The ``nlos_shadow`` component's parts (its value is checked against Mitsuba in test_mitsuba.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from nlos_spotlight.render.person import Person
+from nlos_spotlight.render.shadow import segments_cross_box
+from nlos_spotlight.render.transport import Renderer, RenderSettings
+from nlos_spotlight.scene.examples import SPOT_TARGET, corner_scene
+
+
+def test_segments_cross_box_equals_dense_sampling():
+    rng = np.random.default_rng(0)
+    a, b = rng.uniform(-2, 2, (40, 3)), rng.uniform(-2, 2, (50, 3))
+    lo, hi = np.array([-0.5, -0.3, -0.4]), np.array([0.4, 0.6, 0.2])
+    got = segments_cross_box(*(torch.as_tensor(x) for x in (a, b, lo, hi))).numpy()
+    s = np.linspace(0, 1, 4001)[:, None, None, None]
+    pts = a[None, :, None] + s * (b[None, None] - a[None, :, None])  # (S, 40, 50, 3)
+    inside = ((pts >= lo) & (pts <= hi)).all(-1)
+    # a segment that only grazes the box can fall between two dense samples: compare where the
+    # samples agree with a slightly shrunk box too
+    core = ((pts >= lo + 1e-3) & (pts <= hi - 1e-3)).all(-1)
+    assert 200 < got.sum() < got.size - 200
+    assert (got[core.any(0)]).all() and not got[~inside.any(0)].any()
+
+
+def test_shadow_needs_the_body_in_the_way():
+    """No light is lost with the body far from every spot -> floor -> wall path, and some with it
+    where its shadow falls on lit floor; the light lost never exceeds nlos's magnitude scale."""
+    sc = corner_scene("diffuse_corner", 16)
+    r = Renderer(sc, RenderSettings(pixel_samples=2, transport_pixel_samples=1, spot_samples=64, person_samples=256,
+                                    shadow_samples=2048), aim_points=SPOT_TARGET[None])
+    person = Person.from_mesh(sc.human.mesh, sc.human.albedo, 256)
+    y = r.spot_vector(0)
+    with torch.no_grad():
+        near = r.render(y, person, components=("nlos", "nlos_shadow"))
+        far = r.render(y, person, translation=[0.0, 0.0, 50.0], components=("nlos_shadow",))
+    assert float(far["nlos_shadow"].abs().max()) == 0.0
+    lost = float(near["nlos_shadow"].sum())
+    assert lost < 0 and abs(lost) < 0.2 * float(near["nlos"].sum())
