@@ -179,7 +179,7 @@ def run(args, net, capture, r, seed, train, val, test, policies, lights) -> list
         rows.append({"net": net, "capture": capture, "policy": p, "train_rooms": r, "seed": seed,
                      "posture_accuracy": round(res["posture_accuracy"], 2),
                      "posture3_accuracy": round(res["posture3_accuracy"], 2), "error_cm": round(res["error_cm"], 2),
-                     "mean_answer_cm": round(mean_answer(train, test), 2), "steps": tr.step,
+                     "mean_answer_cm": round(mean_answer(train, test), 2), "steps": cfg.steps,
                      "seconds": round(seconds)})
         print(" ".join(f"{k}={v}" for k, v in rows[-1].items()), flush=True)
     return rows
