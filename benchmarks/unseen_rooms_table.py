@@ -80,8 +80,11 @@ def plot(rows: list[dict], path: Path) -> None:
     mean = [float(r["mean_answer_cm"]) for r in rows]
     ax[1].axhline(np.mean(mean), color="k", ls="--", label="mean answer")
     ax[0].axhline(100 / 6, color="k", ls=":", label="chance")
+    ticks = sorted({k[2] for k in g})
     for a, lab in zip(ax, ("posture accuracy (6-way), %", "localization error, cm")):
         a.set_xscale("log")
+        a.set_xticks(ticks, [str(t) for t in ticks])
+        a.minorticks_off()
         a.set_xlabel("training rooms")
         a.set_ylabel(lab)
         a.legend(fontsize=7)
