@@ -56,7 +56,8 @@ def load_rooms(data: Path, split: str, samples: str, limit: int = 0, features: t
 
 
 def net_config(args, net: str, rooms: int, seed: int, noise: bool):
-    cfg = seen_config(rooms, seed, noise=noise, policy="oracle", batch=args.batch, lr=args.lr, patience=args.patience)
+    cfg = seen_config(rooms, seed, noise=noise, policy="oracle", batch=args.batch, lr=args.lr, patience=args.patience,
+                      backbone=args.backbone, pool_grid=args.pool_grid)
     cfg = dataclasses.replace(cfg, spot_augment=True, holdout_every=0, scenes_per_step=min(rooms, args.scenes_per_step),
                               net=dataclasses.replace(cfg.net, geometry=net == "geometry"))
     return cfg
@@ -125,6 +126,8 @@ def main() -> None:
     ap.add_argument("--lr", type=float, default=2e-3)
     ap.add_argument("--patience", type=int, default=0)
     ap.add_argument("--val-every", type=int, default=0, help="steps between validation passes (0: ~25 a run)")
+    ap.add_argument("--backbone", default="resnet10-narrow", help="feature extractor (models.resnet.BACKBONES)")
+    ap.add_argument("--pool-grid", type=int, default=1, help="last feature map pooled to g x g (1: global average)")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--runs", type=Path, default=Path("out/unseen/runs"))
     ap.add_argument("--out", type=Path, default=Path("docs/results/unseen"))
@@ -169,14 +172,16 @@ def run(args, net, capture, r, seed, train, val, test, policies, lights) -> list
     steps = args.steps or max(1, round(args.epochs * per_epoch))
     every = args.val_every or max(per_epoch, steps // 25)
     cfg = dataclasses.replace(cfg, steps=steps, eval_every=every, ckpt_every=every, log_every=every)
-    out = args.runs / f"{capture}-{net}-{r}rooms-s{seed}"
+    variant = ("" if args.backbone == "resnet10-narrow" else f"-{args.backbone}") + \
+        ("" if args.pool_grid == 1 else f"-pool{args.pool_grid}")
+    out = args.runs / f"{capture}-{net}{variant}-{r}rooms-s{seed}"
     t0 = time.perf_counter()
     tr = train_unseen(cfg, train, val, room_lights(val, "oracle", seed), out, progress=True)
     seconds = time.perf_counter() - t0
     rows = []
     for p in policies:
         res = scores(args, tr, cfg, test, p, lights[p], out)
-        rows.append({"net": net, "capture": capture, "policy": p, "train_rooms": r, "seed": seed,
+        rows.append({"net": net + variant, "capture": capture, "policy": p, "train_rooms": r, "seed": seed,
                      "posture_accuracy": round(res["posture_accuracy"], 2),
                      "posture3_accuracy": round(res["posture3_accuracy"], 2), "error_cm": round(res["error_cm"], 2),
                      "mean_answer_cm": round(mean_answer(train, test), 2), "steps": cfg.steps,
