@@ -33,7 +33,7 @@ from .brdf import brdf
 from .fused import glossy_lobe
 from .kernels import pair_geometry
 from .person import Person, monte_carlo
-from .rays import EPS, RayEngine, pair_rays
+from .rays import EPS, RayEngine
 
 if TYPE_CHECKING:
     from .transport import Renderer
@@ -135,7 +135,4 @@ class SpotShadow:
 
     def _body_blocks(self, body: RayEngine, pa, na, pb, nb, sel: torch.Tensor) -> torch.Tensor:
         """(Na, Nb) 1 where the body blocks the pair's segment (rays only for ``sel``), else 0."""
-        out = torch.zeros(sel.shape, device=self.r.device, dtype=self.r.dtype)
-        if sel.any():
-            out[sel] = self.r._t(body.occluded_rays(*pair_rays(pa, na, pb, nb, need=sel)))
-        return out
+        return sel.to(self.r.dtype) - self.r._visible(body, pa, na, pb, nb, sel)
