@@ -215,6 +215,12 @@ class Renderer:
                     out.components[k] = v.unsqueeze(0).expand(b, -1, -1, -1)
         return out
 
+    def _translations(self, translation) -> tuple[torch.Tensor, bool]:
+        """(B, 3) body offsets (B = 1 unless ``translation`` is a (B, 2|3) batch) and whether it is one."""
+        batched = translation is not None and torch.as_tensor(translation).dim() == 2
+        b = torch.as_tensor(translation).shape[0] if batched else 1
+        return as_translation(translation, b, self.device, self.dtype), batched
+
     def _direct(self, y: torch.Tensor) -> torch.Tensor:
         """D y as (H, W, 3); without a gradient, over y's support only (a one-hot y reads one column)."""
         if y.requires_grad:
@@ -230,9 +236,7 @@ class Renderer:
 
         if getattr(self, "_spot_shadow", None) is None:
             self._spot_shadow = SpotShadow(self)
-        batched = translation is not None and torch.as_tensor(translation).dim() == 2
-        t = as_translation(translation, torch.as_tensor(translation).shape[0] if batched else 1, self.device,
-                           self.dtype)
+        t, batched = self._translations(translation)
         imgs = [self._spot_shadow.image(y, person, tb) for tb in t]
         return torch.stack(imgs) if batched else imgs[0]
 
@@ -282,9 +286,7 @@ class Renderer:
         if person is None:
             zero = torch.zeros(*self.shape, 3, device=self.device, dtype=self.dtype)
             return {c: zero for c in want}
-        batched = translation is not None and torch.as_tensor(translation).dim() == 2
-        t = as_translation(translation, torch.as_tensor(translation).shape[0] if batched else 1,
-                           self.device, self.dtype)
+        t, batched = self._translations(translation)
         amb = self.scene.ambient
         hidden = self._t(amb.hidden_radiance if amb is not None else np.zeros(3))
         pts = {k: self._t(getattr(person, k)) for k in ("pos", "normal", "area", "albedo")}
