@@ -22,13 +22,14 @@ from .brdf import COS_EPS, brdf, ggx_d, smith_g1
 from .kernels import pair_geometry
 
 
-def radiosity_need(sp, sn, lit, o, nb, closed: bool) -> torch.Tensor:
-    """(S, N) bool: spot sample s is lit from its front and light can reach body sample n's side.
+def pair_need(pa, na, front, o, nb, closed: bool) -> torch.Tensor:
+    """(Na, N) bool: surface point a faces body sample n on its ``front`` side and light can pass n's side.
 
-    ``lit`` (S, 1) is n_s . (direction to the projector); a closed body is lit only from outside.
+    ``front`` (Na, 1): n_a . (direction to the projector) for spot samples, n_a . (direction to the
+    camera) for camera sub-samples; a closed body exchanges light only through its outside.
     """
-    d = o.unsqueeze(0) - sp.unsqueeze(1)  # signs only: no normalization needed
-    return ((d * sn.unsqueeze(1)).sum(-1) * lit > 0) & (((d * nb.unsqueeze(0)).sum(-1) < 0) | (not closed))
+    d = o.unsqueeze(0) - pa.unsqueeze(1)  # signs only: no normalization needed
+    return ((d * na.unsqueeze(1)).sum(-1) * front > 0) & (((d * nb.unsqueeze(0)).sum(-1) < 0) | (not closed))
 
 
 def radiosity(sp, sn, to_proj, kd, ks, alpha, o, nb, vis, w, group, groups: int):
@@ -46,16 +47,10 @@ def radiosity(sp, sn, to_proj, kd, ks, alpha, o, nb, vis, w, group, groups: int)
     return zero.index_add(0, group, e * side), zero.index_add(0, group, e * (1 - side))
 
 
-def gather_need(rp, rn, cos_c, o, nb, closed: bool) -> torch.Tensor:
-    """(P, N) bool: camera sub-sample p sees its front (``cos_c`` (P, 1)) and faces body sample n's side."""
-    d = o.unsqueeze(0) - rp.unsqueeze(1)
-    return ((d * rn.unsqueeze(1)).sum(-1) * cos_c > 0) & (((d * nb.unsqueeze(0)).sum(-1) < 0) | (not closed))
-
-
 def gather_weights(rp, rn, o, nb, vis, area):
     """(P, N) weights G V a of body sample n's front (first) and back side seen from sub-sample p.
 
-    ``vis`` is 0 wherever ``gather_need`` is false (no ray was cast there), so it carries the mask.
+    ``vis`` is 0 wherever ``pair_need`` is false (no ray was cast there), so it carries the mask.
     """
     geo = pair_geometry(rp, rn, o, nb)
     w = geo.g * vis * area
@@ -75,7 +70,7 @@ def glossy_lobe(rp, rn, to_cam, cos_c, alpha, o, nb) -> torch.Tensor:
     return spec / (4 * cos_i.abs().clamp(min=COS_EPS) * cos_c.abs().clamp(min=COS_EPS))
 
 
-KERNELS = ("radiosity_need", "radiosity", "gather_need", "gather_weights", "glossy_lobe")
+KERNELS = ("pair_need", "radiosity", "gather_weights", "glossy_lobe")
 
 
 class PairKernels:

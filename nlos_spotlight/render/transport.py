@@ -341,7 +341,7 @@ class Renderer:
             src = {k: v[ii] for k, v in self.spot_pts.items()}
             w = self.spot_flux[ii] if per_spot else self.spot_flux[ii] * y[self.spot_owner[ii]].unsqueeze(-1)
             lit = (src["normal"] * self.spot_to_proj[ii]).sum(-1, keepdim=True)
-            need = self.kernels("radiosity_need", src["pos"], src["normal"], lit, o, pts["normal"], person.closed)
+            need = self.kernels("pair_need", src["pos"], src["normal"], lit, o, pts["normal"], person.closed)
             vis = self._visible(rays, src["pos"], src["normal"], o, pts["normal"], need)
             group = owner[ii] if per_spot else torch.zeros_like(ii)
             f, b = self.kernels("radiosity", src["pos"], src["normal"], self.spot_to_proj[ii], src["kd"],
@@ -403,7 +403,7 @@ class Renderer:
             sl = slice(a, a + self.settings.chunk)
             rp, rn = r.pts["pos"][sl], r.pts["normal"][sl]
             cos_c = (rn * r.to_cam[sl]).sum(-1, keepdim=True)
-            need = self.kernels("gather_need", rp, rn, cos_c, o, pts["normal"], person.closed)
+            need = self.kernels("pair_need", rp, rn, cos_c, o, pts["normal"], person.closed)
             vis = self._visible(rays, rp, rn, o, pts["normal"], need)
             wf, wb = self.kernels("gather_weights", rp, rn, o, pts["normal"], vis, wa)
             rad = r.pts["kd"][sl].repeat(1, front.shape[1] // 3) / math.pi * (wf @ front + wb @ back)
