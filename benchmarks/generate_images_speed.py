@@ -8,7 +8,7 @@ projections: 2,000 people in one room, and the disk size of 100,000 samples in r
 ``--people`` people. ``--profile`` adds the top functions by cumulative time of each kind.
 
     python benchmarks/generate_images_speed.py [--preset demo] [--transport 24] [--images 200]
-        [--scene 0] [--people 2000] [--profile] [--set FIELD=VALUE ...]
+        [--scene 0] [--people 2000] [--profile] [--fuse] [--set FIELD=VALUE ...]
 """
 
 from __future__ import annotations
@@ -34,6 +34,7 @@ def main() -> None:
     ap.add_argument("--people", type=int, default=2000, help="people per room in the size projection")
     ap.add_argument("--top", type=int, default=None, help="stored_spots_top (default: the config's)")
     ap.add_argument("--profile", action="store_true", help="cProfile each sample kind")
+    ap.add_argument("--fuse", action="store_true", help="the renderer's fused pair kernels (nlos generate --fuse)")
     ap.add_argument("--set", nargs="*", default=[], metavar="FIELD=VALUE",
                     help="other DatasetConfig overrides, e.g. person_quadrature=mc")
     args = ap.parse_args()
@@ -93,7 +94,7 @@ def main() -> None:
     before = dict(cache.stats)
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        sb.SceneBuilder(cfg, p, Path(tmp)).build(lambda k=1: None)
+        sb.SceneBuilder(cfg, p, Path(tmp), fuse=args.fuse).build(lambda k=1: None)
         total = time.perf_counter() - t0
         d = Path(tmp) / "scenes" / p.id
         size = lambda pattern: [f.stat().st_size for f in d.glob(pattern)]

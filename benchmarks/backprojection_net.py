@@ -1,0 +1,190 @@
+"""Does a network on the backprojection carry over to rooms it never saw? (issue 12)
+
+Trains ``models/floor_net.FloorNet`` on the matched-filter maps (``data/backprojection.py``) of the
+training rooms' image samples under each room's stored spots, with the default capture's noise
+drawn afresh every step (Gaussian in luminance with the sensor's variance per pixel, empty-room
+frame included), keeps the weights with the lowest error on the validation rooms, and scores the
+test rooms' people under each policy's spot, beside the matched filter's own best cell on the
+same noisy photographs.
+
+    python benchmarks/backprojection_net.py --train out/unseen/train --test out/unseen/test \\
+        [--rooms 200] [--steps 3000] [--seed 0] [--out DIR]
+
+Writes ``DIR/backprojection-net.csv`` (policy, method, error_cm, posture_accuracy, people) and
+``DIR/run.json`` (arguments, versions, seconds, the validation curve).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from nlos_spotlight.console import console
+
+
+def room_arrays(d: Path, faces: list[int] | None, samples: str) -> dict:
+    """What training and scoring need of one room: its templates' parts, and its people's photographs
+    (luminance, background-subtracted, noise-free) and noise variance under each spot of ``faces``
+    (None: the room's stored spots)."""
+    from nlos_spotlight.data.backprojection import candidate_spot_factor, room_backprojector
+    from nlos_spotlight.data.tensors import load_scene_tensors
+    from nlos_spotlight.render.sensor import auto_exposure, dn_per_radiance, noise_variance_dn
+    from nlos_spotlight.train.imaging import capture_sensor, form_images
+
+    s = load_scene_tensors(d, [], samples=samples)
+    bp, _, _ = room_backprojector(str(d))
+    sensor = capture_sensor(tuple(s.ambient.shape[:2]))
+    faces = faces if faces is not None else [int(f) for f in torch.nonzero(s.stored).flatten()]
+    hit = torch.as_tensor(bp.hit.ravel())
+    imgs, var, spots = [], [], []
+    idx = torch.arange(s.num_samples)
+    for f in faces:
+        y = torch.zeros(len(s.faces))
+        y[f] = 1.0
+        with torch.no_grad():
+            img, pf = form_images(s, idx, y, "spot")
+        exposure = auto_exposure(pf.clamp(min=0), sensor)
+        k = dn_per_radiance(exposure, sensor)
+        v = 2 * noise_variance_dn(pf.clamp(min=0) * k, sensor) / k ** 2  # photograph and empty-room frame
+        imgs.append((img - pf).mean(-1).reshape(len(idx), -1)[:, hit])
+        var.append((v.sum(-1) / 9).reshape(-1)[hit])
+        spots.append(candidate_spot_factor(str(d), f))
+    return dict(kernel=torch.as_tensor(bp.kernel, dtype=torch.float32), valid=torch.as_tensor(bp.valid),
+                cells=torch.as_tensor(bp.cells, dtype=torch.float32), heights=bp.heights,
+                spots=torch.as_tensor(np.stack(spots), dtype=torch.float32), images=torch.stack(imgs, 1).float(),
+                var=torch.stack(var).float(), target=s.target, posture=s.posture, faces=faces)
+
+
+def heat(room: dict, k: int, people: torch.Tensor, gen: torch.Generator | None):
+    """(B, Z, G, G) noise-weighted matched filter of ``people`` under the room's k-th spot (fresh
+    noise from ``gen``; None: noise-free) and the template norms (G, G)."""
+    t = room["spots"][k][:, None] * room["kernel"]  # (P, C)
+    w = 1.0 / room["var"][k]
+    norm = ((t * t) @ w).sqrt()
+    x = room["images"][people, k]
+    if gen is not None:
+        x = x + torch.randn(x.shape, generator=gen) * room["var"][k].sqrt()
+    h = (x * w) @ t.T / torch.where(norm > 0, norm, torch.inf)
+    n = int(round(len(room["cells"]) ** 0.5))
+    strength = norm.reshape(room["heights"], n, n).amax(0)
+    return h.reshape(len(people), room["heights"], n, n), strength
+
+
+def argmax_cell(room: dict, h: torch.Tensor) -> torch.Tensor:
+    m = h.amax(1).reshape(len(h), -1).masked_fill(~room["valid"][None], -torch.inf)
+    return room["cells"][m.argmax(1)]
+
+
+def predict(net, room: dict, k: int, people: torch.Tensor, gen) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    h, strength = heat(room, k, people, gen)
+    n = h.shape[-1]
+    valid = room["valid"].reshape(n, n)
+    pos, logits, _ = net(h, valid.expand(len(h), -1, -1), strength.expand(len(h), -1, -1), room["cells"])
+    return pos, logits, argmax_cell(room, h)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--train", required=True)
+    ap.add_argument("--test", required=True)
+    ap.add_argument("--rooms", type=int, default=200, help="training rooms")
+    ap.add_argument("--test-rooms", type=int, default=40)
+    ap.add_argument("--steps", type=int, default=3000)
+    ap.add_argument("--rooms-per-step", type=int, default=4)
+    ap.add_argument("--people-per-room", type=int, default=16)
+    ap.add_argument("--lr", type=float, default=2e-3)
+    ap.add_argument("--policies", default="oracle,adaptive,center,random")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", type=Path, default=Path("out/backprojection-net"))
+    args = ap.parse_args()
+    torch.set_num_threads(1)
+    torch.manual_seed(args.seed)
+    from nlos_spotlight.data.tensors import finished_scene_dirs, load_scene_tensors
+    from nlos_spotlight.evaluate.unseen import room_lights
+    from nlos_spotlight.models.floor_net import FloorNet, FloorNetConfig
+
+    t0 = time.perf_counter()
+    train = [room_arrays(d, None, "images") for d in finished_scene_dirs(args.train, "train")[: args.rooms]]
+    val = [room_arrays(d, None, "images") for d in finished_scene_dirs(args.train, "val")]
+    console.print(f"{len(train)} training and {len(val)} validation rooms ready ({time.perf_counter() - t0:.0f} s)")
+    mean_xy = torch.cat([r["target"] for r in train]).mean(0)
+    net = FloorNet(FloorNetConfig(heights=train[0]["heights"]))
+    opt = torch.optim.AdamW(net.parameters(), lr=args.lr, weight_decay=1e-4)
+    sched = torch.optim.lr_scheduler.OneCycleLR(opt, args.lr, total_steps=args.steps)
+    gen = torch.Generator().manual_seed(args.seed)
+    rng = np.random.default_rng(args.seed)
+    curve, best, best_state = [], float("inf"), None
+
+    def val_error() -> float:
+        g = torch.Generator().manual_seed(12345)
+        net.eval()
+        errs = []
+        with torch.no_grad():
+            for r in val:
+                for k in range(len(r["faces"])):
+                    pos, _, _ = predict(net, r, k, torch.arange(len(r["target"])), g)
+                    errs.append((pos - r["target"]).norm(dim=1))
+        net.train()
+        return float(torch.cat(errs).mean()) * 100
+
+    for step in range(1, args.steps + 1):
+        loss = 0.0
+        for i in rng.choice(len(train), args.rooms_per_step, replace=False):
+            r = train[i]
+            k = int(rng.integers(len(r["faces"])))
+            people = torch.as_tensor(rng.choice(len(r["target"]), min(args.people_per_room, len(r["target"])),
+                                                replace=False))
+            pos, logits, _ = predict(net, r, k, people, gen)
+            loss = loss + (pos - r["target"][people]).norm(dim=1).mean() \
+                + 0.3 * torch.nn.functional.cross_entropy(logits, r["posture"][people])
+        opt.zero_grad()
+        (loss / args.rooms_per_step).backward()
+        opt.step()
+        sched.step()
+        if step % 250 == 0 or step == args.steps:
+            e = val_error()
+            curve.append((step, e))
+            if e < best:
+                best, best_state = e, {k: v.clone() for k, v in net.state_dict().items()}
+            console.print(f"step {step}: validation {e:.1f} cm (best {best:.1f}) ({time.perf_counter() - t0:.0f} s)")
+    net.load_state_dict(best_state)
+    net.eval()
+    rows = []
+    test_dirs = finished_scene_dirs(args.test, "test")[: args.test_rooms]
+    for policy in args.policies.split(","):
+        acc = {m: [[], []] for m in ("floor-net", "matched-filter", "mean answer")}
+        for i, d in enumerate(test_dirs):
+            s = load_scene_tensors(d, [], samples="transport")
+            face = room_lights([s], policy, args.seed)[0].face
+            r = room_arrays(d, [face], "transport")
+            g = torch.Generator().manual_seed(1000 * args.seed + i)
+            with torch.no_grad():
+                pos, logits, cell = predict(net, r, 0, torch.arange(len(r["target"])), g)
+            for m, p in (("floor-net", pos), ("matched-filter", cell), ("mean answer", mean_xy.expand_as(pos))):
+                acc[m][0].append((p - r["target"]).norm(dim=1))
+            acc["floor-net"][1].append(logits.argmax(1) == r["posture"])
+        for m, (e, c) in acc.items():
+            rows.append(dict(policy=policy, method=m, error_cm=round(float(torch.cat(e).mean()) * 100, 2),
+                             posture_accuracy=round(float(torch.cat(c).float().mean()) * 100, 1) if c else "",
+                             people=int(sum(len(x) for x in e))))
+            console.print(f"{policy:9s} {m:15s} {rows[-1]['error_cm']:6.1f} cm  posture {rows[-1]['posture_accuracy']}")
+    args.out.mkdir(parents=True, exist_ok=True)
+    with open(args.out / "backprojection-net.csv", "w", newline="") as f:
+        wr = csv.DictWriter(f, fieldnames=list(rows[0]))
+        wr.writeheader()
+        wr.writerows(rows)
+    (args.out / "run.json").write_text(json.dumps(dict(
+        args={k: str(v) for k, v in vars(args).items()}, validation_cm=curve, best_validation_cm=best,
+        seconds=time.perf_counter() - t0, torch=torch.__version__, python=platform.python_version()), indent=1))
+    torch.save(best_state, args.out / "floor_net.pt")
+
+
+if __name__ == "__main__":
+    main()
