@@ -8,7 +8,7 @@ test rooms' people under each policy's spot, beside the matched filter's own bes
 same noisy photographs.
 
     python benchmarks/backprojection_net.py --train out/unseen/train --test out/unseen/test \\
-        [--rooms 200] [--steps 3000] [--seed 0] [--out DIR]
+        [--rooms 200] [--steps 3000] [--templates 1|2] [--seed 0] [--out DIR]
 
 Writes ``DIR/backprojection-net.csv`` (policy, method, error_cm, posture_accuracy, people) and
 ``DIR/run.json`` (arguments, versions, seconds, the validation curve).
@@ -62,28 +62,31 @@ def room_arrays(d: Path, faces: list[int] | None, samples: str) -> dict:
                 var=torch.stack(var).float(), target=s.target, posture=s.posture, faces=faces)
 
 
-def heat(room: dict, k: int, people: torch.Tensor, gen: torch.Generator | None):
-    """(B, Z, G, G) noise-weighted matched filter of ``people`` under the room's k-th spot (fresh
-    noise from ``gen``; None: noise-free) and the template norms (G, G)."""
-    t = room["spots"][k][:, None] * room["kernel"]  # (P, C)
+def heat(room: dict, k: int, people: torch.Tensor, gen: torch.Generator | None, templates: int = 1):
+    """(B, M Z, G, G) noise-weighted matched filters of ``people`` under the room's k-th spot (fresh
+    noise from ``gen``; None: noise-free): the spot's templates, and with ``templates`` 2 the kernel
+    alone (a person lit evenly); the spot templates' norms (G, G)."""
     w = 1.0 / room["var"][k]
-    norm = ((t * t) @ w).sqrt()
     x = room["images"][people, k]
     if gen is not None:
         x = x + torch.randn(x.shape, generator=gen) * room["var"][k].sqrt()
-    h = (x * w) @ t.T / torch.where(norm > 0, norm, torch.inf)
     n = int(round(len(room["cells"]) ** 0.5))
-    strength = norm.reshape(room["heights"], n, n).amax(0)
-    return h.reshape(len(people), room["heights"], n, n), strength
+    hs, strength = [], None
+    for t in [room["spots"][k][:, None] * room["kernel"], room["kernel"]][:templates]:  # (P, C)
+        norm = ((t * t) @ w).sqrt()
+        hs.append(((x * w) @ t.T / torch.where(norm > 0, norm, torch.inf)).reshape(len(people), -1, n, n))
+        strength = norm.reshape(room["heights"], n, n).amax(0) if strength is None else strength
+    return torch.cat(hs, 1), strength
 
 
 def argmax_cell(room: dict, h: torch.Tensor) -> torch.Tensor:
-    m = h.amax(1).reshape(len(h), -1).masked_fill(~room["valid"][None], -torch.inf)
+    """(B, 2) the valid cell where the spot's filter (the first Z channels of ``h``) peaks."""
+    m = h[:, : room["heights"]].amax(1).reshape(len(h), -1).masked_fill(~room["valid"][None], -torch.inf)
     return room["cells"][m.argmax(1)]
 
 
 def predict(net, room: dict, k: int, people: torch.Tensor, gen) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    h, strength = heat(room, k, people, gen)
+    h, strength = heat(room, k, people, gen, net.cfg.templates)
     n = h.shape[-1]
     valid = room["valid"].reshape(n, n)
     pos, logits, _ = net(h, valid.expand(len(h), -1, -1), strength.expand(len(h), -1, -1), room["cells"])
@@ -101,6 +104,8 @@ def main() -> None:
     ap.add_argument("--people-per-room", type=int, default=16)
     ap.add_argument("--lr", type=float, default=2e-3)
     ap.add_argument("--policies", default="oracle,adaptive,center,random")
+    ap.add_argument("--templates", type=int, default=1, choices=(1, 2),
+                    help="2: also the filter of a person lit evenly (the person's ambient light)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=Path("out/backprojection-net"))
     args = ap.parse_args()
@@ -115,7 +120,7 @@ def main() -> None:
     val = [room_arrays(d, None, "images") for d in finished_scene_dirs(args.train, "val")]
     console.print(f"{len(train)} training and {len(val)} validation rooms ready ({time.perf_counter() - t0:.0f} s)")
     mean_xy = torch.cat([r["target"] for r in train]).mean(0)
-    net = FloorNet(FloorNetConfig(heights=train[0]["heights"]))
+    net = FloorNet(FloorNetConfig(heights=train[0]["heights"], templates=args.templates))
     opt = torch.optim.AdamW(net.parameters(), lr=args.lr, weight_decay=1e-4)
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, args.lr, total_steps=args.steps)
     gen = torch.Generator().manual_seed(args.seed)

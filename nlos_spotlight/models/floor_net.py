@@ -13,10 +13,12 @@ soft-argmax, so its position is an average of cells weighted by a learned score:
     posture = MLP(sum_g softmax(s)_g features_g)
 
 where h is the noise-weighted matched filter in units of the noise (its detection SNR per cell and
-height), and ||T_p|| how strongly a person at p can light the walls at all.
+height), and ||T_p|| how strongly a person at p can light the walls at all. With ``templates`` 2
+a second filter, the same kernel without the spot factor (a person lit evenly, as by the room's
+ambient light), adds its own Z channels and peak.
 
 Shapes:
-    heat (B, Z, G, G), valid (B, G, G), strength (B, G, G), cells (G * G, 2) ->
+    heat (B, M Z, G, G) for M templates, valid (B, G, G), strength (B, G, G), cells (G * G, 2) ->
     position (B, 2) m, posture logits (B, P), scores (B, G, G).
 """
 
@@ -33,7 +35,9 @@ class FloorNetConfig:
     """Sizes of :class:`FloorNet`."""
 
     heights: int = 3
-    """Z: heatmap channels (the backprojector's heights)."""
+    """Z: heatmap channels per template (the backprojector's heights)."""
+    templates: int = 1
+    """Matched filters stacked on the channels, each Z heights (the spot's; + the person's ambient light)."""
     width: int = 48
     """Channels of the convolutional layers."""
     layers: int = 6
@@ -48,7 +52,7 @@ class FloorNet(nn.Module):
     def __init__(self, cfg: FloorNetConfig = FloorNetConfig()):
         super().__init__()
         self.cfg = cfg
-        cin = cfg.heights + 3
+        cin = cfg.templates * (cfg.heights + 1) + 2
         dil = [(1, 2, 4)[i % 3] for i in range(cfg.layers)]
         convs = []
         for i, d in enumerate(dil):
@@ -66,15 +70,16 @@ class FloorNet(nn.Module):
             elif isinstance(m, nn.GroupNorm):
                 m.reset_parameters()
 
-    @staticmethod
-    def inputs(heat: torch.Tensor, valid: torch.Tensor, strength: torch.Tensor) -> torch.Tensor:
-        """(B, Z + 3, G, G) network input from the matched filter (B, Z, G, G), the valid cells and the
-        template norms (B, G, G)."""
+    def inputs(self, heat: torch.Tensor, valid: torch.Tensor, strength: torch.Tensor) -> torch.Tensor:
+        """(B, M (Z + 1) + 2, G, G) network input from M matched filters (B, M Z, G, G), the valid
+        cells and the spot template's norms (B, G, G): each filter over its peak, and its peak."""
         v = valid.unsqueeze(1).to(heat.dtype)
-        peak = (heat * v).amax(dim=(1, 2, 3), keepdim=True).clamp(min=1e-6)
-        level = torch.log1p(peak.clamp(min=0)).expand_as(v) / 5
+        out = []
+        for h in heat.chunk(self.cfg.templates, dim=1):
+            peak = (h * v).amax(dim=(1, 2, 3), keepdim=True).clamp(min=1e-6)
+            out += [h * v / peak, torch.log1p(peak.clamp(min=0)).expand_as(v) / 5]
         rel = torch.log((strength / strength.amax(dim=(1, 2), keepdim=True).clamp(min=1e-30)).clamp(min=1e-6))
-        return torch.cat([heat * v / peak, level, v, rel.unsqueeze(1) / 10 * v], 1)
+        return torch.cat(out + [v, rel.unsqueeze(1) / 10 * v], 1)
 
     def forward(self, heat: torch.Tensor, valid: torch.Tensor, strength: torch.Tensor,
                 cells: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
