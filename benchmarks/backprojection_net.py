@@ -93,29 +93,12 @@ def predict(net, room: dict, k: int, people: torch.Tensor, gen) -> tuple[torch.T
     return pos, logits, argmax_cell(room, h)
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--train", required=True)
-    ap.add_argument("--test", required=True)
-    ap.add_argument("--rooms", type=int, default=200, help="training rooms")
-    ap.add_argument("--test-rooms", type=int, default=40)
-    ap.add_argument("--steps", type=int, default=3000)
-    ap.add_argument("--rooms-per-step", type=int, default=4)
-    ap.add_argument("--people-per-room", type=int, default=16)
-    ap.add_argument("--lr", type=float, default=2e-3)
-    ap.add_argument("--policies", default="oracle,adaptive,center,random")
-    ap.add_argument("--templates", type=int, default=1, choices=(1, 2),
-                    help="2: also the filter of a person lit evenly (the person's ambient light)")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", type=Path, default=Path("out/backprojection-net"))
-    args = ap.parse_args()
-    torch.set_num_threads(1)
-    torch.manual_seed(args.seed)
-    from nlos_spotlight.data.tensors import finished_scene_dirs, load_scene_tensors
-    from nlos_spotlight.evaluate.unseen import room_lights
+def train_floor_net(args, t0: float):
+    """FloorNet trained on the training rooms, the weights of its best validation error kept;
+    returns it, the training rooms' mean position, the validation curve and its best error."""
+    from nlos_spotlight.data.tensors import finished_scene_dirs
     from nlos_spotlight.models.floor_net import FloorNet, FloorNetConfig
 
-    t0 = time.perf_counter()
     train = [room_arrays(d, None, "images") for d in finished_scene_dirs(args.train, "train")[: args.rooms]]
     val = [room_arrays(d, None, "images") for d in finished_scene_dirs(args.train, "val")]
     console.print(f"{len(train)} training and {len(val)} validation rooms ready ({time.perf_counter() - t0:.0f} s)")
@@ -160,14 +143,65 @@ def main() -> None:
                 best, best_state = e, {k: v.clone() for k, v in net.state_dict().items()}
             console.print(f"step {step}: validation {e:.1f} cm (best {best:.1f}) ({time.perf_counter() - t0:.0f} s)")
     net.load_state_dict(best_state)
+    return net, mean_xy, curve, best
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--train", required=True)
+    ap.add_argument("--test", required=True)
+    ap.add_argument("--rooms", type=int, default=200, help="training rooms")
+    ap.add_argument("--test-rooms", type=int, default=40)
+    ap.add_argument("--steps", type=int, default=3000)
+    ap.add_argument("--rooms-per-step", type=int, default=4)
+    ap.add_argument("--people-per-room", type=int, default=16)
+    ap.add_argument("--lr", type=float, default=2e-3)
+    ap.add_argument("--policies", default="oracle,adaptive,center,random")
+    ap.add_argument("--templates", type=int, default=1, choices=(1, 2),
+                    help="2: also the filter of a person lit evenly (the person's ambient light)")
+    ap.add_argument("--ien", type=Path, default=None,
+                    help="ien.pt of benchmarks/unseen_rooms.py --ien (features normals,adaptive, prior weight 1): "
+                         "score its spot too")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", type=Path, default=Path("out/backprojection-net"))
+    args = ap.parse_args()
+    torch.set_num_threads(1)
+    torch.manual_seed(args.seed)
+    from nlos_spotlight.data.tensors import finished_scene_dirs, load_scene_tensors
+    from nlos_spotlight.evaluate.unseen import room_lights
+    from nlos_spotlight.models.floor_net import FloorNet, FloorNetConfig
+
+    t0 = time.perf_counter()
+    args.out.mkdir(parents=True, exist_ok=True)
+    weights = args.out / "floor_net.pt"
+    if weights.exists():  # trained before: score only (e.g. with --ien added)
+        console.print(f"{weights}: trained weights found, scoring only")
+        mean_xy = torch.cat([load_scene_tensors(d, [], samples="images").target
+                             for d in finished_scene_dirs(args.train, "train")[: args.rooms]]).mean(0)
+        net = FloorNet(FloorNetConfig(templates=args.templates))
+        net.load_state_dict(torch.load(weights, weights_only=True))
+        before = json.loads((args.out / "run.json").read_text())
+        curve, best = before["validation_cm"], before["best_validation_cm"]
+    else:
+        net, mean_xy, curve, best = train_floor_net(args, t0)
+        torch.save(net.state_dict(), weights)
     net.eval()
     rows = []
     test_dirs = finished_scene_dirs(args.test, "test")[: args.test_rooms]
-    for policy in args.policies.split(","):
+    policies, ien, feats = args.policies.split(","), None, []
+    if args.ien:
+        from nlos_spotlight.models.ien import IEN, IENConfig
+
+        feats = ["normals", "adaptive"]
+        ien = IEN(IENConfig(in_features=7, prior_weight=1.0))
+        ien.load_state_dict(torch.load(args.ien, weights_only=True))
+        ien.eval()
+        policies.append("ien")
+    for policy in policies:
         acc = {m: [[], []] for m in ("floor-net", "matched-filter", "mean answer")}
         for i, d in enumerate(test_dirs):
-            s = load_scene_tensors(d, [], samples="transport")
-            face = room_lights([s], policy, args.seed)[0].face
+            s = load_scene_tensors(d, feats, samples="transport")
+            face = room_lights([s], policy, args.seed, ien)[0].face
             r = room_arrays(d, [face], "transport")
             g = torch.Generator().manual_seed(1000 * args.seed + i)
             with torch.no_grad():
@@ -180,15 +214,14 @@ def main() -> None:
                              posture_accuracy=round(float(torch.cat(c).float().mean()) * 100, 1) if c else "",
                              people=int(sum(len(x) for x in e))))
             console.print(f"{policy:9s} {m:15s} {rows[-1]['error_cm']:6.1f} cm  posture {rows[-1]['posture_accuracy']}")
-    args.out.mkdir(parents=True, exist_ok=True)
     with open(args.out / "backprojection-net.csv", "w", newline="") as f:
         wr = csv.DictWriter(f, fieldnames=list(rows[0]))
         wr.writeheader()
         wr.writerows(rows)
     (args.out / "run.json").write_text(json.dumps(dict(
         args={k: str(v) for k, v in vars(args).items()}, validation_cm=curve, best_validation_cm=best,
+        mean_xy=mean_xy.tolist(),
         seconds=time.perf_counter() - t0, torch=torch.__version__, python=platform.python_version()), indent=1))
-    torch.save(best_state, args.out / "floor_net.pt")
 
 
 if __name__ == "__main__":
