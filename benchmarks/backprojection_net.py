@@ -10,7 +10,8 @@ same noisy photographs.
     python benchmarks/backprojection_net.py --train out/unseen/train --test out/unseen/test \\
         [--rooms 200] [--steps 3000] [--templates 1|2] [--seed 0] [--out DIR]
 
-Writes ``DIR/backprojection-net.csv`` (policy, method, error_cm, posture_accuracy, people) and
+Writes ``DIR/backprojection-net.csv`` (policy, method, error_cm, posture_accuracy, posture3_accuracy
+(upright / sitting / crouching), people) and
 ``DIR/run.json`` (arguments, versions, seconds, the validation curve).
 """
 
@@ -168,6 +169,7 @@ def main() -> None:
     torch.set_num_threads(1)
     torch.manual_seed(args.seed)
     from nlos_spotlight.data.tensors import finished_scene_dirs, load_scene_tensors
+    from nlos_spotlight.evaluate.seen import GROUP_OF
     from nlos_spotlight.evaluate.unseen import room_lights
     from nlos_spotlight.models.floor_net import FloorNet, FloorNetConfig
 
@@ -198,7 +200,7 @@ def main() -> None:
         ien.eval()
         policies.append("ien")
     for policy in policies:
-        acc = {m: [[], []] for m in ("floor-net", "matched-filter", "mean answer")}
+        acc = {m: [[], [], []] for m in ("floor-net", "matched-filter", "mean answer")}
         for i, d in enumerate(test_dirs):
             s = load_scene_tensors(d, feats, samples="transport")
             face = room_lights([s], policy, args.seed, ien)[0].face
@@ -208,11 +210,14 @@ def main() -> None:
                 pos, logits, cell = predict(net, r, 0, torch.arange(len(r["target"])), g)
             for m, p in (("floor-net", pos), ("matched-filter", cell), ("mean answer", mean_xy.expand_as(pos))):
                 acc[m][0].append((p - r["target"]).norm(dim=1))
-            acc["floor-net"][1].append(logits.argmax(1) == r["posture"])
-        for m, (e, c) in acc.items():
+            guess = logits.argmax(1)
+            acc["floor-net"][1].append(guess == r["posture"])
+            group = torch.as_tensor(GROUP_OF)
+            acc["floor-net"][2].append(group[guess] == group[r["posture"]])
+        pct = lambda c: round(float(torch.cat(c).float().mean()) * 100, 1) if c else ""
+        for m, (e, c, c3) in acc.items():
             rows.append(dict(policy=policy, method=m, error_cm=round(float(torch.cat(e).mean()) * 100, 2),
-                             posture_accuracy=round(float(torch.cat(c).float().mean()) * 100, 1) if c else "",
-                             people=int(sum(len(x) for x in e))))
+                             posture_accuracy=pct(c), posture3_accuracy=pct(c3), people=int(sum(len(x) for x in e))))
             console.print(f"{policy:9s} {m:15s} {rows[-1]['error_cm']:6.1f} cm  posture {rows[-1]['posture_accuracy']}")
     with open(args.out / "backprojection-net.csv", "w", newline="") as f:
         wr = csv.DictWriter(f, fieldnames=list(rows[0]))

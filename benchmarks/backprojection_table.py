@@ -37,14 +37,17 @@ def main() -> None:
                 if any(v[0] == int(a["seed"]) for v in groups[key]):
                     continue  # the same seed's filter twice (runs of two networks)
                 groups[key].append((int(a["seed"]), float(r["error_cm"]),
-                                    float(r["posture_accuracy"]) if r["posture_accuracy"] else None))
+                                    float(r["posture_accuracy"]) if r["posture_accuracy"] else None,
+                                    float(r["posture3_accuracy"]) if r.get("posture3_accuracy") else None))
     rows = []
     for (templates, steps, policy, method), vals in sorted(groups.items()):
         err = np.array([v[1] for v in vals])
         acc = [v[2] for v in vals if v[2] is not None]
+        acc3 = [v[3] for v in vals if v[3] is not None]
         rows.append(dict(templates=templates, steps=steps, policy=policy, method=method, seeds=len(vals),
                          error_cm=round(err.mean(), 2), error_std=round(err.std(ddof=1), 2) if len(err) > 1 else "",
-                         posture_accuracy=round(float(np.mean(acc)), 1) if acc else ""))
+                         posture_accuracy=round(float(np.mean(acc)), 1) if acc else "",
+                         posture3_accuracy=round(float(np.mean(acc3)), 1) if acc3 else ""))
     args.out.mkdir(parents=True, exist_ok=True)
     with open(args.out / "backprojection-net.csv", "w", newline="") as f:
         wr = csv.DictWriter(f, fieldnames=list(rows[0]))
@@ -63,7 +66,8 @@ def main() -> None:
                 continue
             seeds = max(seeds, r["seeds"])
             e = f"{r['error_cm']:.1f}" + (f" +- {r['error_std']:.1f}" if r["error_std"] != "" else "") + " cm"
-            cells.append(e + (f" / {r['posture_accuracy']:.1f}%" if r["posture_accuracy"] != "" else ""))
+            cells.append(e + (f" / {r['posture_accuracy']:.1f}%" if r["posture_accuracy"] != "" else "")
+                         + (f" / {r['posture3_accuracy']:.1f}%" if r["posture3_accuracy"] != "" else ""))
         t, n = (templates, steps) if templates else ("-", "-")
         lines.append(f"| {method} | {t} | {n} | {seeds} | " + " | ".join(cells) + " |")
     (args.out / "backprojection-net.md").write_text("\n".join(lines) + "\n")
