@@ -199,26 +199,27 @@ def main() -> None:
         ien.load_state_dict(torch.load(args.ien, weights_only=True))
         ien.eval()
         policies.append("ien")
-    for policy in policies:
-        acc = {m: [[], [], []] for m in ("floor-net", "matched-filter", "mean answer")}
-        for i, d in enumerate(test_dirs):
-            s = load_scene_tensors(d, feats, samples="transport")
-            face = room_lights([s], policy, args.seed, ien)[0].face
-            r = room_arrays(d, [face], "transport")
+    acc = {(p, m): [[], [], []] for p in policies for m in ("floor-net", "matched-filter", "mean answer")}
+    group = torch.as_tensor(GROUP_OF)
+    for i, d in enumerate(test_dirs):  # rooms outside: one backprojector a room
+        s = load_scene_tensors(d, feats, samples="transport")
+        faces = [room_lights([s], policy, args.seed, ien)[0].face for policy in policies]
+        r = room_arrays(d, faces, "transport")
+        for k, policy in enumerate(policies):
             g = torch.Generator().manual_seed(1000 * args.seed + i)
             with torch.no_grad():
-                pos, logits, cell = predict(net, r, 0, torch.arange(len(r["target"])), g)
+                pos, logits, cell = predict(net, r, k, torch.arange(len(r["target"])), g)
             for m, p in (("floor-net", pos), ("matched-filter", cell), ("mean answer", mean_xy.expand_as(pos))):
-                acc[m][0].append((p - r["target"]).norm(dim=1))
+                acc[policy, m][0].append((p - r["target"]).norm(dim=1))
             guess = logits.argmax(1)
-            acc["floor-net"][1].append(guess == r["posture"])
-            group = torch.as_tensor(GROUP_OF)
-            acc["floor-net"][2].append(group[guess] == group[r["posture"]])
-        pct = lambda c: round(float(torch.cat(c).float().mean()) * 100, 1) if c else ""
-        for m, (e, c, c3) in acc.items():
-            rows.append(dict(policy=policy, method=m, error_cm=round(float(torch.cat(e).mean()) * 100, 2),
-                             posture_accuracy=pct(c), posture3_accuracy=pct(c3), people=int(sum(len(x) for x in e))))
-            console.print(f"{policy:9s} {m:15s} {rows[-1]['error_cm']:6.1f} cm  posture {rows[-1]['posture_accuracy']}")
+            acc[policy, "floor-net"][1].append(guess == r["posture"])
+            acc[policy, "floor-net"][2].append(group[guess] == group[r["posture"]])
+    pct = lambda c: round(float(torch.cat(c).float().mean()) * 100, 1) if c else ""
+    for (policy, m), (e, c, c3) in acc.items():
+        rows.append(dict(policy=policy, method=m, error_cm=round(float(torch.cat(e).mean()) * 100, 2),
+                         posture_accuracy=pct(c), posture3_accuracy=pct(c3), people=int(sum(len(x) for x in e))))
+        console.print(f"{policy:9s} {m:15s} {rows[-1]['error_cm']:6.1f} cm  posture {rows[-1]['posture_accuracy']} "
+                      f"/ {rows[-1]['posture3_accuracy']}")
     with open(args.out / "backprojection-net.csv", "w", newline="") as f:
         wr = csv.DictWriter(f, fieldnames=list(rows[0]))
         wr.writeheader()
