@@ -170,7 +170,8 @@ def main() -> None:
     torch.manual_seed(args.seed)
     from nlos_spotlight.data.tensors import finished_scene_dirs, load_scene_tensors
     from nlos_spotlight.evaluate.seen import GROUP_OF
-    from nlos_spotlight.evaluate.unseen import room_lights
+    from nlos_spotlight.lighting import policy_rng
+    from nlos_spotlight.lighting.learned import policy_named
     from nlos_spotlight.models.floor_net import FloorNet, FloorNetConfig
 
     t0 = time.perf_counter()
@@ -203,7 +204,9 @@ def main() -> None:
     group = torch.as_tensor(GROUP_OF)
     for i, d in enumerate(test_dirs):  # rooms outside: one backprojector a room
         s = load_scene_tensors(d, feats, samples="transport")
-        faces = [room_lights([s], policy, args.seed, ien)[0].face for policy in policies]
+        # the i-th test room's key, as benchmarks/unseen_rooms.py draws it (evaluate.unseen.room_lights)
+        faces = [policy_named(policy, ien)(s, Path(d), policy_rng(args.seed, i, new_room=True)).face
+                 for policy in policies]
         r = room_arrays(d, faces, "transport")
         for k, policy in enumerate(policies):
             g = torch.Generator().manual_seed(1000 * args.seed + i)

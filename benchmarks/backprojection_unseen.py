@@ -59,7 +59,8 @@ def main() -> None:
 
     from nlos_spotlight.data.backprojection import candidate_spot_factor, room_backprojector
     from nlos_spotlight.data.tensors import finished_scene_dirs, load_scene_tensors
-    from nlos_spotlight.evaluate.unseen import room_lights
+    from nlos_spotlight.lighting import policy_rng
+    from nlos_spotlight.lighting.learned import policy_named
     from nlos_spotlight.train.imaging import capture_sensor, form_images
 
     train_dirs = finished_scene_dirs(args.train, "train")
@@ -77,7 +78,7 @@ def main() -> None:
         mean_err = np.linalg.norm(tgt - mean_xy, axis=1).mean() * 100
         idx = torch.arange(s.num_samples)
         for policy in policies:
-            ill = room_lights([s], policy, args.seed)[0]
+            ill = policy_named(policy)(s, Path(d), policy_rng(args.seed, i, new_room=True))  # as room_lights draws
             y = ill.spot_vector(len(s.faces))
             spot = candidate_spot_factor(str(d), ill.face)
             with torch.no_grad():
