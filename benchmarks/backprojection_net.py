@@ -8,7 +8,7 @@ test rooms' people under each policy's spot, beside the matched filter's own bes
 same noisy photographs.
 
     python benchmarks/backprojection_net.py --train out/unseen/train --test out/unseen/test \\
-        [--rooms 200] [--steps 3000] [--templates 1|2] [--seed 0] [--out DIR]
+        [--rooms 200] [--steps 3000] [--templates 1|2] [--capture photo|spot] [--seed 0] [--out DIR]
 
 Writes ``DIR/backprojection-net.csv`` (policy, method, error_cm, posture_accuracy, posture3_accuracy
 (upright / sitting / crouching), people) and
@@ -30,10 +30,17 @@ import torch
 from nlos_spotlight.console import console
 
 
-def room_arrays(d: Path, faces: list[int] | None, samples: str) -> dict:
+CAPTURES = ("photo", "spot")
+"""What the filter reads. 'photo': the photograph minus the empty-room one (the networks' input: the
+person's light from the spot and from the room's ambient light). 'spot': also a projector-off
+photograph with the person and one without, so that (on - off with) - (on - off without) leaves the
+person's light from the spot alone, at the noise of four frames."""
+
+
+def room_arrays(d: Path, faces: list[int] | None, samples: str, capture: str = "photo") -> dict:
     """What training and scoring need of one room: its templates' parts, and its people's photographs
-    (luminance, background-subtracted, noise-free) and noise variance under each spot of ``faces``
-    (None: the room's stored spots)."""
+    (luminance, background-subtracted, noise-free; ``capture`` of :data:`CAPTURES`) and noise variance
+    under each spot of ``faces`` (None: the room's stored spots)."""
     from nlos_spotlight.data.backprojection import candidate_spot_factor, room_backprojector
     from nlos_spotlight.data.tensors import load_scene_tensors
     from nlos_spotlight.render.sensor import auto_exposure, dn_per_radiance, noise_variance_dn
@@ -54,7 +61,11 @@ def room_arrays(d: Path, faces: list[int] | None, samples: str) -> dict:
         exposure = auto_exposure(pf.clamp(min=0), sensor)
         k = dn_per_radiance(exposure, sensor)
         v = 2 * noise_variance_dn(pf.clamp(min=0) * k, sensor) / k ** 2  # photograph and empty-room frame
-        imgs.append((img - pf).mean(-1).reshape(len(idx), -1)[:, hit])
+        person = img - pf
+        if capture == "spot":  # the two projector-off frames, at the same exposure
+            v = v + 2 * noise_variance_dn(s.ambient.clamp(min=0) * k, sensor) / k ** 2
+            person = person - s.nlos_ambient
+        imgs.append(person.mean(-1).reshape(len(idx), -1)[:, hit])
         var.append((v.sum(-1) / 9).reshape(-1)[hit])
         spots.append(candidate_spot_factor(str(d), f))
     return dict(kernel=torch.as_tensor(bp.kernel, dtype=torch.float32), valid=torch.as_tensor(bp.valid),
@@ -100,8 +111,8 @@ def train_floor_net(args, t0: float):
     from nlos_spotlight.data.tensors import finished_scene_dirs
     from nlos_spotlight.models.floor_net import FloorNet, FloorNetConfig
 
-    train = [room_arrays(d, None, "images") for d in finished_scene_dirs(args.train, "train")[: args.rooms]]
-    val = [room_arrays(d, None, "images") for d in finished_scene_dirs(args.train, "val")]
+    arrays = lambda split: [room_arrays(d, None, "images", args.capture) for d in finished_scene_dirs(args.train, split)]
+    train, val = arrays("train")[: args.rooms], arrays("val")
     console.print(f"{len(train)} training and {len(val)} validation rooms ready ({time.perf_counter() - t0:.0f} s)")
     mean_xy = torch.cat([r["target"] for r in train]).mean(0)
     net = FloorNet(FloorNetConfig(heights=train[0]["heights"], templates=args.templates))
@@ -163,6 +174,8 @@ def main() -> None:
     ap.add_argument("--ien", type=Path, default=None,
                     help="ien.pt of benchmarks/unseen_rooms.py --ien (features normals,adaptive, prior weight 1): "
                          "score its spot too")
+    ap.add_argument("--capture", choices=CAPTURES, default="photo",
+                    help="spot: projector-off frames too, the person's ambient light removed (CAPTURES)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=Path("out/backprojection-net"))
     args = ap.parse_args()
@@ -207,7 +220,7 @@ def main() -> None:
         # the i-th test room's key, as benchmarks/unseen_rooms.py draws it (evaluate.unseen.room_lights)
         faces = [policy_named(policy, ien)(s, Path(d), policy_rng(args.seed, i, new_room=True)).face
                  for policy in policies]
-        r = room_arrays(d, faces, "transport")
+        r = room_arrays(d, faces, "transport", args.capture)
         for k, policy in enumerate(policies):
             g = torch.Generator().manual_seed(1000 * args.seed + i)
             with torch.no_grad():

@@ -1,8 +1,8 @@
 """Merge ``benchmarks/backprojection_net.py`` runs into one table: mean +- std over seeds.
 
 Each run directory holds ``backprojection-net.csv`` and ``run.json`` (its arguments: templates,
-seed, steps). Floor-net rows are grouped by (templates, steps, policy); the matched filter and the
-mean answer by policy, one run per seed.
+seed, steps, capture). Floor-net rows are grouped by (capture, templates, steps, policy); the
+matched filter and the mean answer by (capture, policy), one run per seed.
 
     python benchmarks/backprojection_table.py out/backprojection-net/* --out docs/results/backprojection-net
 """
@@ -33,18 +33,19 @@ def main() -> None:
         with open(run / "backprojection-net.csv") as f:
             for r in csv.DictReader(f):
                 net = r["method"] == "floor-net"  # the others do not depend on the network's settings
-                key = (int(a.get("templates", 1)) if net else 0, int(a["steps"]) if net else 0, r["policy"], r["method"])
+                key = (a.get("capture", "photo"), int(a.get("templates", 1)) if net else 0, int(a["steps"]) if net else 0,
+                       r["policy"], r["method"])
                 if any(v[0] == int(a["seed"]) for v in groups[key]):
                     continue  # the same seed's filter twice (runs of two networks)
                 groups[key].append((int(a["seed"]), float(r["error_cm"]),
                                     float(r["posture_accuracy"]) if r["posture_accuracy"] else None,
                                     float(r["posture3_accuracy"]) if r.get("posture3_accuracy") else None))
     rows = []
-    for (templates, steps, policy, method), vals in sorted(groups.items()):
+    for (capture, templates, steps, policy, method), vals in sorted(groups.items()):
         err = np.array([v[1] for v in vals])
         acc = [v[2] for v in vals if v[2] is not None]
         acc3 = [v[3] for v in vals if v[3] is not None]
-        rows.append(dict(templates=templates, steps=steps, policy=policy, method=method, seeds=len(vals),
+        rows.append(dict(capture=capture, templates=templates, steps=steps, policy=policy, method=method, seeds=len(vals),
                          error_cm=round(err.mean(), 2), error_std=round(err.std(ddof=1), 2) if len(err) > 1 else "",
                          posture_accuracy=round(float(np.mean(acc)), 1) if acc else "",
                          posture3_accuracy=round(float(np.mean(acc3)), 1) if acc3 else ""))
@@ -53,14 +54,15 @@ def main() -> None:
         wr = csv.DictWriter(f, fieldnames=list(rows[0]))
         wr.writeheader()
         wr.writerows(rows)
-    lines = ["| method | templates | steps | seeds | " + " | ".join(p for p in POLICIES) + " |",
-             "|---" * (4 + len(POLICIES)) + "|"]
-    configs = sorted({(r["method"], r["templates"], r["steps"]) for r in rows}, key=lambda c: (c[0] != "floor-net", c))
-    for method, templates, steps in configs:
+    lines = ["| capture | method | templates | steps | seeds | " + " | ".join(p for p in POLICIES) + " |",
+             "|---" * (5 + len(POLICIES)) + "|"]
+    configs = sorted({(r["capture"], r["method"], r["templates"], r["steps"]) for r in rows},
+                     key=lambda c: (c[0], c[1] != "floor-net", c))
+    for capture, method, templates, steps in configs:
         cells, seeds = [], 0
         for p in POLICIES:
-            r = next((r for r in rows if (r["method"], r["templates"], r["steps"], r["policy"]) ==
-                      (method, templates, steps, p)), None)
+            r = next((r for r in rows if (r["capture"], r["method"], r["templates"], r["steps"], r["policy"]) ==
+                      (capture, method, templates, steps, p)), None)
             if r is None:
                 cells.append("")
                 continue
@@ -69,7 +71,7 @@ def main() -> None:
             cells.append(e + (f" / {r['posture_accuracy']:.1f}%" if r["posture_accuracy"] != "" else "")
                          + (f" / {r['posture3_accuracy']:.1f}%" if r["posture3_accuracy"] != "" else ""))
         t, n = (templates, steps) if templates else ("-", "-")
-        lines.append(f"| {method} | {t} | {n} | {seeds} | " + " | ".join(cells) + " |")
+        lines.append(f"| {capture} | {method} | {t} | {n} | {seeds} | " + " | ".join(cells) + " |")
     (args.out / "backprojection-net.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
