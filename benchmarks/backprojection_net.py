@@ -8,7 +8,8 @@ test rooms' people under each policy's spot, beside the matched filter's own bes
 same noisy photographs.
 
     python benchmarks/backprojection_net.py --train out/unseen/train --test out/unseen/test \\
-        [--rooms 200] [--steps 3000] [--templates 1|2] [--capture photo|spot] [--seed 0] [--out DIR]
+        [--rooms 200] [--steps 3000] [--templates 1|2] [--capture photo|spot] [--mask placement|free] \\
+        [--seed 0] [--ien IEN_PT] [--out DIR]
 
 Writes ``DIR/backprojection-net.csv`` (policy, method, error_cm, posture_accuracy, posture3_accuracy
 (upright / sitting / crouching), people) and
@@ -37,17 +38,19 @@ photograph with the person and one without, so that (on - off with) - (on - off 
 person's light from the spot alone, at the noise of four frames."""
 
 
-def room_arrays(d: Path, faces: list[int] | None, samples: str, capture: str = "photo") -> dict:
+def room_arrays(d: Path, faces: list[int] | None, samples: str, capture: str = "photo",
+                mask: str = "placement") -> dict:
     """What training and scoring need of one room: its templates' parts, and its people's photographs
     (luminance, background-subtracted, noise-free; ``capture`` of :data:`CAPTURES`) and noise variance
     under each spot of ``faces`` (None: the room's stored spots)."""
-    from nlos_spotlight.data.backprojection import candidate_spot_factor, room_backprojector
+    from nlos_spotlight.data.backprojection import FloorGrid, candidate_spot_factor, room_backprojector
     from nlos_spotlight.data.tensors import load_scene_tensors
     from nlos_spotlight.render.sensor import auto_exposure, dn_per_radiance, noise_variance_dn
     from nlos_spotlight.train.imaging import capture_sensor, form_images
 
     s = load_scene_tensors(d, [], samples=samples)
-    bp, _, _ = room_backprojector(str(d))
+    grid = FloorGrid(mask=mask)
+    bp, _, _ = room_backprojector(str(d), grid)
     sensor = capture_sensor(tuple(s.ambient.shape[:2]))
     faces = faces if faces is not None else [int(f) for f in torch.nonzero(s.stored).flatten()]
     hit = torch.as_tensor(bp.hit.ravel())
@@ -67,7 +70,7 @@ def room_arrays(d: Path, faces: list[int] | None, samples: str, capture: str = "
             person = person - s.nlos_ambient
         imgs.append(person.mean(-1).reshape(len(idx), -1)[:, hit])
         var.append((v.sum(-1) / 9).reshape(-1)[hit])
-        spots.append(candidate_spot_factor(str(d), f))
+        spots.append(candidate_spot_factor(str(d), f, grid))
     return dict(kernel=torch.as_tensor(bp.kernel, dtype=torch.float32), valid=torch.as_tensor(bp.valid),
                 cells=torch.as_tensor(bp.cells, dtype=torch.float32), heights=bp.heights,
                 spots=torch.as_tensor(np.stack(spots), dtype=torch.float32), images=torch.stack(imgs, 1).float(),
@@ -111,7 +114,8 @@ def train_floor_net(args, t0: float):
     from nlos_spotlight.data.tensors import finished_scene_dirs
     from nlos_spotlight.models.floor_net import FloorNet, FloorNetConfig
 
-    arrays = lambda split: [room_arrays(d, None, "images", args.capture) for d in finished_scene_dirs(args.train, split)]
+    arrays = lambda split: [room_arrays(d, None, "images", args.capture, args.mask)
+                            for d in finished_scene_dirs(args.train, split)]
     train, val = arrays("train")[: args.rooms], arrays("val")
     console.print(f"{len(train)} training and {len(val)} validation rooms ready ({time.perf_counter() - t0:.0f} s)")
     mean_xy = torch.cat([r["target"] for r in train]).mean(0)
@@ -176,6 +180,8 @@ def main() -> None:
                          "score its spot too")
     ap.add_argument("--capture", choices=CAPTURES, default="photo",
                     help="spot: projector-off frames too, the person's ambient light removed (CAPTURES)")
+    ap.add_argument("--mask", choices=("placement", "free"), default="placement",
+                    help="cells a person may stand in (data.backprojection.FloorGrid.mask)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=Path("out/backprojection-net"))
     args = ap.parse_args()
@@ -220,7 +226,7 @@ def main() -> None:
         # the i-th test room's key, as benchmarks/unseen_rooms.py draws it (evaluate.unseen.room_lights)
         faces = [policy_named(policy, ien)(s, Path(d), policy_rng(args.seed, i, new_room=True)).face
                  for policy in policies]
-        r = room_arrays(d, faces, "transport", args.capture)
+        r = room_arrays(d, faces, "transport", args.capture, args.mask)
         for k, policy in enumerate(policies):
             g = torch.Generator().manual_seed(1000 * args.seed + i)
             with torch.no_grad():

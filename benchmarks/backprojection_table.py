@@ -33,7 +33,9 @@ def main() -> None:
         with open(run / "backprojection-net.csv") as f:
             for r in csv.DictReader(f):
                 net = r["method"] == "floor-net"  # the others do not depend on the network's settings
-                key = (a.get("capture", "photo"), int(a.get("templates", 1)) if net else 0, int(a["steps"]) if net else 0,
+                mask = a.get("mask", "placement")
+                capture = a.get("capture", "photo") + ("" if mask == "placement" else f", mask {mask}")
+                key = (capture, int(a.get("templates", 1)) if net else 0, int(a["steps"]) if net else 0,
                        r["policy"], r["method"])
                 if any(v[0] == int(a["seed"]) for v in groups[key]):
                     continue  # the same seed's filter twice (runs of two networks)
@@ -45,7 +47,8 @@ def main() -> None:
         err = np.array([v[1] for v in vals])
         acc = [v[2] for v in vals if v[2] is not None]
         acc3 = [v[3] for v in vals if v[3] is not None]
-        rows.append(dict(capture=capture, templates=templates, steps=steps, policy=policy, method=method, seeds=len(vals),
+        rows.append(dict(capture=capture, templates=templates, steps=steps, policy=policy, method=method,
+                         seeds=len(vals),
                          error_cm=round(err.mean(), 2), error_std=round(err.std(ddof=1), 2) if len(err) > 1 else "",
                          posture_accuracy=round(float(np.mean(acc)), 1) if acc else "",
                          posture3_accuracy=round(float(np.mean(acc3)), 1) if acc3 else ""))

@@ -38,6 +38,10 @@ import numpy as np
 from ..scene.format import Scene
 
 
+MASKS = ("placement", "free")
+"""Rules for the cells a person may stand in (:attr:`FloorGrid.mask`)."""
+
+
 @dataclass(frozen=True)
 class FloorGrid:
     """Where the backprojector looks: a square floor grid in the region frame, at a few heights."""
@@ -49,6 +53,10 @@ class FloorGrid:
     heights: tuple[float, ...] = (0.3, 0.9, 1.5)
     """Heights above the hidden floor, m (legs, hips, chest of a standing person; a sitting or
     crouching one reaches the lower two)."""
+    mask: str = "placement"
+    """Cells a person may stand in: 'placement' (the dataset's rules: in the hidden region, 0.6-2.4 m
+    from the visible surfaces as DESIGN section 7 asks, free of furniture, seeing the walls) or
+    'free' (in the region and free of furniture only)."""
 
     def cells(self) -> np.ndarray:
         """(G, 2) cell centers (along the view, to its left), m."""
@@ -117,7 +125,8 @@ def camera_kernel(engine, points: np.ndarray, pos: np.ndarray, normal: np.ndarra
     return k
 
 
-def backprojector(scene: Scene, origin_xy: np.ndarray, fwd_xy: np.ndarray, grid: FloorGrid = FloorGrid()) -> Backprojector:
+def backprojector(scene: Scene, origin_xy: np.ndarray, fwd_xy: np.ndarray,
+                  grid: FloorGrid = FloorGrid()) -> Backprojector:
     """A room's backprojector on ``grid`` around ``origin_xy`` (the region frame's axes: ``fwd_xy``
     and its left) at the hidden floor's height."""
     from ..render.gbuffer import render_gbuffer
@@ -133,7 +142,10 @@ def backprojector(scene: Scene, origin_xy: np.ndarray, fwd_xy: np.ndarray, grid:
     points = np.concatenate([np.column_stack([world_xy, np.full(len(cells), floor_z + h)]) for h in grid.heights])
     hit = g.hit
     kernel = camera_kernel(surf.engine, points, g.position[hit], g.normal[hit], g.albedo[hit])
-    valid = SceneGeometry(scene).valid_positions(world_xy)
+    if grid.mask not in MASKS:
+        raise ValueError(f"backprojection mask: expected one of {', '.join(MASKS)}, got {grid.mask!r}")
+    rules = {} if grid.mask == "placement" else {"distance": (0.0, np.inf), "min_seen": 0.0}
+    valid = SceneGeometry(scene).valid_positions(world_xy, **rules)
     return Backprojector(cells, points, valid, kernel, hit, len(grid.heights))
 
 
@@ -166,5 +178,5 @@ def candidate_spot_factor(scene_dir: str, face: int, grid: FloorGrid = FloorGrid
     return bp.spot_factor(engine, aim, n)
 
 
-__all__ = ["Backprojector", "FloorGrid", "backprojector", "camera_kernel", "candidate_spot_factor",
+__all__ = ["MASKS", "Backprojector", "FloorGrid", "backprojector", "camera_kernel", "candidate_spot_factor",
            "room_backprojector"]

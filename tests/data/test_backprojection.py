@@ -4,6 +4,7 @@ with another ray engine, and its answer against people the renderer puts in the 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import torch
 
 from nlos_spotlight.data.backprojection import FloorGrid, backprojector, camera_kernel
@@ -89,3 +90,13 @@ def test_backprojection_finds_a_rendered_person():
     assert err.mean() < 0.3 * np.linalg.norm(places - origin, axis=1).mean()
     # scaling the image or weighting every pixel alike changes nothing
     np.testing.assert_array_equal(bp.locate(3.0 * np.stack(images), spot, np.full((24, 24), 2.0)), found)
+
+
+def test_free_mask_keeps_every_placement_cell():
+    sc = corner_scene("furniture", 8)
+    origin, fwd = np.array([1.35, 2.1]), np.array([1.0, 0.0])
+    placement = backprojector(sc, origin, fwd, FloorGrid(extent=1.4, step=0.2)).valid
+    free = backprojector(sc, origin, fwd, FloorGrid(extent=1.4, step=0.2, mask="free")).valid
+    assert placement.sum() > 10 and (free >= placement).all() and free.sum() > placement.sum()
+    with pytest.raises(ValueError, match="mask"):
+        backprojector(sc, origin, fwd, FloorGrid(mask="everywhere"))
