@@ -29,6 +29,7 @@ import numpy as np
 import torch
 
 from nlos_spotlight.console import console
+from nlos_spotlight.data.backprojection import matched_filter
 
 
 CAPTURES = ("photo", "spot")
@@ -88,9 +89,9 @@ def heat(room: dict, k: int, people: torch.Tensor, gen: torch.Generator | None, 
     n = int(round(len(room["cells"]) ** 0.5))
     hs, strength = [], None
     for t in [room["spots"][k][:, None] * room["kernel"], room["kernel"]][:templates]:  # (P, C)
-        norm = ((t * t) @ w).sqrt()
-        hs.append(((x * w) @ t.T / torch.where(norm > 0, norm, torch.inf)).reshape(len(people), -1, n, n))
-        strength = norm.reshape(room["heights"], n, n).amax(0) if strength is None else strength
+        hs.append(matched_filter(x, t, w).reshape(len(people), -1, n, n))
+        if strength is None:
+            strength = ((t * t) @ w).sqrt().reshape(room["heights"], n, n).amax(0)
     return torch.cat(hs, 1), strength
 
 
@@ -140,7 +141,7 @@ def train_floor_net(args, t0: float):
 
     for step in range(1, args.steps + 1):
         loss = 0.0
-        for i in rng.choice(len(train), args.rooms_per_step, replace=False):
+        for i in rng.choice(len(train), min(args.rooms_per_step, len(train)), replace=False):
             r = train[i]
             k = int(rng.integers(len(r["faces"])))
             people = torch.as_tensor(rng.choice(len(r["target"]), min(args.people_per_room, len(r["target"])),

@@ -98,13 +98,11 @@ class Backprojector:
         ``weights`` (H, W[, 3]) the inverse noise variance per pixel (None: white noise)."""
         images = np.asarray(images, dtype=np.float64)
         img = (images.mean(-1) if images.ndim == 4 else images).reshape(len(images), -1)[:, self.hit.ravel()]
-        t = spot[:, None] * self.kernel  # (P, C)
-        w = np.ones(t.shape[1])
+        w = None
         if weights is not None:
             w = np.asarray(weights, dtype=np.float64)
             w = (w.mean(-1) if w.ndim == 3 else w).ravel()[self.hit.ravel()]
-        norm = np.sqrt((t * t) @ w)
-        h = (img * w) @ t.T / np.where(norm > 0, norm, np.inf)
+        h = matched_filter(img, spot[:, None] * self.kernel, w)
         return h.reshape(len(images), self.heights, -1)
 
     def locate(self, images: np.ndarray, spot: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
@@ -112,6 +110,16 @@ class Backprojector:
         h = self.heatmap(images, spot, weights).max(1)
         h = np.where(self.valid[None], h, -np.inf)
         return self.cells[h.argmax(1)]
+
+
+def matched_filter(images, templates, weights=None):
+    """(B, P) h = sum_c w_c T(p, c) I(c) / sqrt(sum_c w_c T(p, c)^2) of luminance images (B, C) and
+    templates (P, C), numpy or torch alike (the training benchmarks call it on noisy torch batches);
+    ``weights`` (C,) the inverse noise variance (None: 1). Templates of zero norm give 0."""
+    w = 1.0 if weights is None else weights
+    norm = ((templates * templates) * w).sum(-1) ** 0.5
+    inv = 1.0 / (norm + (norm == 0)) * (norm > 0)  # 0 where a template is all zero
+    return ((images * w) @ templates.T) * inv
 
 
 def camera_kernel(engine, points: np.ndarray, pos: np.ndarray, normal: np.ndarray, albedo: np.ndarray) -> np.ndarray:
@@ -179,4 +187,5 @@ def candidate_spot_factor(scene_dir: str, face: int, grid: FloorGrid = FloorGrid
 
 
 __all__ = ["MASKS", "Backprojector", "FloorGrid", "backprojector", "camera_kernel", "candidate_spot_factor",
+           "matched_filter",
            "room_backprojector"]

@@ -100,3 +100,18 @@ def test_free_mask_keeps_every_placement_cell():
     assert placement.sum() > 10 and (free >= placement).all() and free.sum() > placement.sum()
     with pytest.raises(ValueError, match="mask"):
         backprojector(sc, origin, fwd, FloorGrid(mask="everywhere"))
+
+
+def test_matched_filter_is_the_same_in_numpy_and_torch():
+    """The weighted normalized correlation, written out per template; a template of zeros scores 0."""
+    from nlos_spotlight.data.backprojection import matched_filter
+
+    rng = np.random.default_rng(1)
+    img, t, w = rng.normal(size=(4, 30)), rng.uniform(size=(5, 30)), rng.uniform(0.5, 2.0, 30)
+    t[2] = 0.0
+    want = np.array([[(w * t[p] * img[b]).sum() / np.sqrt((w * t[p] ** 2).sum()) if p != 2 else 0.0
+                      for p in range(5)] for b in range(4)])
+    np.testing.assert_allclose(matched_filter(img, t, w), want, rtol=1e-12)
+    got = matched_filter(*(torch.as_tensor(a) for a in (img, t, w)))
+    np.testing.assert_allclose(got.numpy(), want, rtol=1e-12)
+    np.testing.assert_allclose(matched_filter(img, t), matched_filter(img, t, np.ones(30)), rtol=1e-12)
