@@ -46,8 +46,7 @@ def room_arrays(d: Path, faces: list[int] | None, samples: str, capture: str = "
     under each spot of ``faces`` (None: the room's stored spots)."""
     from nlos_spotlight.data.backprojection import FloorGrid, candidate_spot_factor, room_backprojector
     from nlos_spotlight.data.tensors import load_scene_tensors
-    from nlos_spotlight.render.sensor import auto_exposure, dn_per_radiance, noise_variance_dn
-    from nlos_spotlight.train.imaging import capture_sensor, form_images
+    from nlos_spotlight.train.imaging import capture_sensor, form_images, radiance_variance
 
     s = load_scene_tensors(d, [], samples=samples)
     grid = FloorGrid(mask=mask)
@@ -62,12 +61,10 @@ def room_arrays(d: Path, faces: list[int] | None, samples: str, capture: str = "
         y[f] = 1.0
         with torch.no_grad():
             img, pf = form_images(s, idx, y, "spot")
-        exposure = auto_exposure(pf.clamp(min=0), sensor)
-        k = dn_per_radiance(exposure, sensor)
-        v = 2 * noise_variance_dn(pf.clamp(min=0) * k, sensor) / k ** 2  # photograph and empty-room frame
+        v = 2 * radiance_variance(pf, pf, sensor)  # photograph and empty-room frame
         person = img - pf
         if capture == "spot":  # the two projector-off frames, at the same exposure
-            v = v + 2 * noise_variance_dn(s.ambient.clamp(min=0) * k, sensor) / k ** 2
+            v = v + 2 * radiance_variance(s.ambient, pf, sensor)
             person = person - s.nlos_ambient
         imgs.append(person.mean(-1).reshape(len(idx), -1)[:, hit])
         var.append((v.sum(-1) / 9).reshape(-1)[hit])

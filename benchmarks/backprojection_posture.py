@@ -31,8 +31,7 @@ def profiles(d: Path, seed: int, i: int) -> dict:
     from nlos_spotlight.data.tensors import load_scene_tensors
     from nlos_spotlight.lighting import policy_rng
     from nlos_spotlight.lighting.learned import policy_named
-    from nlos_spotlight.render.sensor import auto_exposure, dn_per_radiance, noise_variance_dn
-    from nlos_spotlight.train.imaging import capture_sensor, form_images
+    from nlos_spotlight.train.imaging import capture_sensor, form_images, radiance_variance
 
     s = load_scene_tensors(d, [], samples="images" if "train" in d.name or "val" in d.name else "transport")
     grid = FloorGrid(heights=HEIGHTS)
@@ -43,8 +42,7 @@ def profiles(d: Path, seed: int, i: int) -> dict:
     with torch.no_grad():
         img, pf = form_images(s, torch.arange(s.num_samples), y, "spot")
     sensor = capture_sensor(tuple(s.ambient.shape[:2]))
-    k = dn_per_radiance(auto_exposure(pf.clamp(min=0), sensor), sensor)
-    var = (2 * noise_variance_dn(pf.clamp(min=0) * k, sensor) / k ** 2).numpy()
+    var = (2 * radiance_variance(pf, pf, sensor)).numpy()
     clean = (img - pf).numpy()
     gen = np.random.default_rng(seed * 1000 + i)
     noisy = clean + gen.standard_normal(clean.shape) * np.sqrt(var)

@@ -35,14 +35,13 @@ from nlos_spotlight.console import console
 def noisy(clean: torch.Tensor, person_free: torch.Tensor, sensor, gen: torch.Generator):
     """A background-subtracted photograph of ``clean`` (B, H, W, 3) in radiance units and the inverse
     noise variance per pixel (H, W, 3), metered on ``person_free`` as the camera does."""
-    from nlos_spotlight.render.sensor import auto_exposure, dn_per_radiance, noise_variance_dn
-    from nlos_spotlight.train.imaging import add_sensor_noise
+    from nlos_spotlight.render.sensor import auto_exposure
+    from nlos_spotlight.train.imaging import add_sensor_noise, radiance_variance
 
     exposure = auto_exposure(person_free.clamp(min=0), sensor)
     photo, _ = add_sensor_noise(clean.clamp(min=0), exposure, sensor, gen)
     bg, _ = add_sensor_noise(person_free.clamp(min=0).expand_as(clean), exposure, sensor, gen)
-    k = dn_per_radiance(exposure, sensor)
-    var = 2 * noise_variance_dn(person_free.clamp(min=0) * k, sensor) / k ** 2  # photo and background
+    var = 2 * radiance_variance(person_free, person_free, sensor)  # photo and background
     return (photo - bg).numpy(), (1.0 / var).numpy()
 
 

@@ -77,6 +77,14 @@ def capture_sensor(image_shape: tuple[int, int], overrides: dict | None = None) 
     return SensorConfig.from_dict({**(overrides or {}), "width": w, "height": h})
 
 
+def radiance_variance(frame: torch.Tensor, reference: torch.Tensor, cfg: SensorConfig) -> torch.Tensor:
+    """Noise variance per pixel (radiance units squared) of a photograph whose noise-free value is
+    ``frame``, exposed as the camera meters the person-free ``reference``; a difference of
+    photographs (one with the person, the empty room) has the sum of theirs."""
+    k = dn_per_radiance(auto_exposure(reference.clamp(min=0), cfg), cfg)
+    return noise_variance_dn(frame.clamp(min=0) * k, cfg) / k ** 2
+
+
 def add_sensor_noise(images: torch.Tensor, exposure: float, cfg: SensorConfig,
                      generator: torch.Generator | None = None) -> tuple[torch.Tensor, torch.Tensor]:
     """A photograph in radiance units and its clip flag (B, H, W): noisy, differentiable in ``images``.
