@@ -50,7 +50,7 @@ def room_arrays(d: Path, faces: list[int] | None, samples: str, capture: str = "
 
     s = load_scene_tensors(d, [], samples=samples)
     grid = FloorGrid(mask=mask)
-    bp, _, _ = room_backprojector(str(d), grid)
+    bp, _ = room_backprojector(str(d), grid)
     sensor = capture_sensor(tuple(s.ambient.shape[:2]))
     faces = faces if faces is not None else [int(f) for f in torch.nonzero(s.stored).flatten()]
     hit = torch.as_tensor(bp.hit.ravel())

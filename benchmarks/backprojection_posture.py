@@ -35,7 +35,7 @@ def profiles(d: Path, seed: int, i: int) -> dict:
 
     s = load_scene_tensors(d, [], samples="images" if "train" in d.name or "val" in d.name else "transport")
     grid = FloorGrid(heights=HEIGHTS)
-    bp, _, _ = room_backprojector(str(d), grid)
+    bp, _ = room_backprojector(str(d), grid)
     face = policy_named("oracle")(s, d, policy_rng(seed, i, new_room=True)).face
     y = torch.zeros(len(s.faces))
     y[face] = 1.0

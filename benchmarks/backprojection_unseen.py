@@ -71,7 +71,7 @@ def main() -> None:
     t0 = time.perf_counter()
     for i, d in enumerate(dirs):
         s = load_scene_tensors(d, [], samples="transport")
-        bp, _, _ = room_backprojector(str(d))
+        bp, _ = room_backprojector(str(d))
         sensor = capture_sensor(tuple(s.ambient.shape[:2]))
         tgt = s.target.numpy()
         mean_err = np.linalg.norm(tgt - mean_xy, axis=1).mean() * 100

@@ -81,14 +81,16 @@ class Backprojector:
     """(H, W) bool: the pixel shows a surface (the C columns of ``kernel``)."""
     heights: int
     """Z."""
+    engine: object
+    """The room's ``render.rays.RayEngine`` (the spot factor's visibility)."""
 
-    def spot_factor(self, engine, aim: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    def spot_factor(self, aim: np.ndarray, normal: np.ndarray) -> np.ndarray:
         """(Z * G,) S_a(p) of a spot at ``aim`` on a surface of unit ``normal`` (the lit side's)."""
         d = self.points - aim
         r = np.linalg.norm(d, axis=1)
         s = np.clip(d @ normal / r, 0.0, None) / r ** 2
         idx = np.flatnonzero(s > 0)
-        blocked = engine.occluded(np.repeat(aim[None], len(idx), 0), self.points[idx],
+        blocked = self.engine.occluded(np.repeat(aim[None], len(idx), 0), self.points[idx],
                                   np.repeat(normal[None], len(idx), 0), None)
         s[idx[blocked]] = 0.0
         return s
@@ -153,15 +155,14 @@ def backprojector(scene: Scene, origin_xy: np.ndarray, fwd_xy: np.ndarray,
     if grid.mask not in MASKS:
         raise ValueError(f"backprojection mask: expected one of {', '.join(MASKS)}, got {grid.mask!r}")
     rules = {} if grid.mask == "placement" else {"distance": (0.0, np.inf), "min_seen": 0.0}
-    valid = SceneGeometry(scene).valid_positions(world_xy, **rules)
-    return Backprojector(cells, points, valid, kernel, hit, len(grid.heights))
+    valid = SceneGeometry(scene, engine=surf.engine).valid_positions(world_xy, **rules)
+    return Backprojector(cells, points, valid, kernel, hit, len(grid.heights), surf.engine)
 
 
 @functools.lru_cache(maxsize=8)
-def room_backprojector(scene_dir: str, grid: FloorGrid = FloorGrid()) -> tuple[Backprojector, object, dict]:
-    """A dataset room's backprojector (region frame of its targets), its ray engine and its static
-    arrays (aim points, LOS mesh, camera pose), cached per room."""
-    from ..render.rays import RayEngine
+def room_backprojector(scene_dir: str, grid: FloorGrid = FloorGrid()) -> tuple[Backprojector, dict]:
+    """A dataset room's backprojector (region frame of its targets) and its static arrays (aim
+    points, LOS mesh, camera pose), cached per room."""
     from ..scene.io import load_scene
     from .tensors import region_center
 
@@ -170,20 +171,18 @@ def room_backprojector(scene_dir: str, grid: FloorGrid = FloorGrid()) -> tuple[B
     st = dict(np.load(d / "static.npz"))
     pose = st["camera_to_world"]
     fwd = -pose[:2, 2] / np.linalg.norm(pose[:2, 2])
-    bp = backprojector(scene, region_center(d), fwd, grid)
-    mesh, _ = scene.static_mesh()
-    return bp, RayEngine(mesh.vertices, mesh.faces), st
+    return backprojector(scene, region_center(d), fwd, grid), st
 
 
 def candidate_spot_factor(scene_dir: str, face: int, grid: FloorGrid = FloorGrid()) -> np.ndarray:
     """(Z * G,) S_a(p) of a dataset room's candidate ``face``: its stored aim point, its LOS face's
     normal turned toward the camera (the candidate is a face the camera sees)."""
-    bp, engine, st = room_backprojector(str(scene_dir), grid)
+    bp, st = room_backprojector(str(scene_dir), grid)
     tri = st["los_vertices"][st["los_faces"][face]]
     n = np.cross(tri[1] - tri[0], tri[2] - tri[0])
     aim = st["aim_points"][face]
     n = n / np.linalg.norm(n) * np.sign(n @ (st["camera_to_world"][:3, 3] - aim) + 1e-300)
-    return bp.spot_factor(engine, aim, n)
+    return bp.spot_factor(aim, n)
 
 
 __all__ = ["MASKS", "Backprojector", "FloorGrid", "backprojector", "camera_kernel", "candidate_spot_factor",

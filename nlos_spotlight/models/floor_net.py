@@ -65,9 +65,7 @@ class FloorNet(nn.Module):
 
     def reset_parameters(self) -> None:
         for m in self.modules():
-            if isinstance(m, (nn.Conv2d, nn.Linear)):
-                m.reset_parameters()
-            elif isinstance(m, nn.GroupNorm):
+            if isinstance(m, (nn.Conv2d, nn.Linear, nn.GroupNorm)):
                 m.reset_parameters()
 
     def inputs(self, heat: torch.Tensor, valid: torch.Tensor, strength: torch.Tensor) -> torch.Tensor:

@@ -300,10 +300,13 @@ def on_floor(engine: RayEngine, xy: np.ndarray, floor_z: float, tol: float = 0.1
 class SceneGeometry:
     """Ray engine and camera-visible points of a scene (built once, reused by the checks)."""
 
-    def __init__(self, scene: Scene, los_n: int = 48):
-        mesh, _ = scene.static_mesh()
+    def __init__(self, scene: Scene, los_n: int = 48, engine: RayEngine | None = None):
+        """``engine``: the static scene's ray engine when the caller has one (else it is built)."""
         self.scene = scene
-        self.engine = RayEngine(mesh.vertices, mesh.faces)
+        if engine is None:
+            mesh, _ = scene.static_mesh()
+            engine = RayEngine(mesh.vertices, mesh.faces)
+        self.engine = engine
         self.los = thin(los_points(self.engine, scene.camera, los_n))
 
     def valid_positions(self, xy: np.ndarray, distance=(0.6, 2.4), radius: float = 0.3,

@@ -76,7 +76,7 @@ def test_backprojection_finds_a_rendered_person():
     reg = sc.hidden_region
     origin = (reg.min + reg.max) / 2
     bp = backprojector(sc, origin, np.array([1.0, 0.0]), FloorGrid(extent=1.4, step=0.2))
-    spot = bp.spot_factor(StaticSurfaces(sc).engine, SPOT_TARGET, np.array([0.0, 1.0, 0.0]))
+    spot = bp.spot_factor(SPOT_TARGET, np.array([0.0, 1.0, 0.0]))
     at = sc.human.mesh.vertices.mean(0)
     places = np.array([(0.6, 1.2), (1.0, 2.6), (1.8, 1.5), (1.3, 2.0)])
     images = []
