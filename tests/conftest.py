@@ -173,3 +173,24 @@ def one_thread():
     torch.set_num_threads(1)
     yield
     torch.set_num_threads(n)
+
+
+def glossy_corner_pair(person_samples: int, dtype: str, **variant):
+    """A 12x12 glossy furniture corner with ambient light and three candidate spots: its renderer
+    with the torch pair kernels, one with the settings overrides ``variant``, and a body of about
+    ``person_samples`` samples. The paint is glossy so that the GGX branches of the kernels run too."""
+    import dataclasses
+
+    from nlos_spotlight.render.person import Person
+    from nlos_spotlight.render.transport import Renderer, RenderSettings
+    from nlos_spotlight.scene.examples import SPOT_TARGET, corner_scene
+
+    settings = RenderSettings(pixel_samples=2, transport_pixel_samples=2, spot_samples=16,
+                              person_samples=person_samples, dtype=dtype, device="cpu", pair_loops=False)
+    sc = corner_scene("furniture", resolution=12)
+    sc.materials["paint"].specular[:] = 0.3
+    sc.ambient = Ambient(np.zeros(3), np.full(3, 0.05))
+    aims = np.stack([SPOT_TARGET, SPOT_TARGET + [0.25, 0, 0.1], SPOT_TARGET + [-0.3, 0, -0.2]])
+    base = Renderer(sc, settings, aim_points=aims)
+    other = Renderer(sc, dataclasses.replace(settings, **variant), aim_points=aims)
+    return base, other, Person.from_mesh(sc.human.mesh, sc.human.albedo, person_samples, "faces")

@@ -166,11 +166,16 @@ class SceneRays:
         self.person = person
 
     def occluded_rays(self, origins: np.ndarray, dirs: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-        """(N,) bool for prepared float32 rays (see :func:`pair_rays`)."""
-        occ = self.static.occluded_rays(origins, dirs, lengths)
-        if self.person is not None:
-            live = np.flatnonzero(~occ)
-            occ[live] = self.person.occluded_rays(origins[live], dirs[live], lengths[live])
+        """(N,) bool for prepared float32 rays (see :func:`pair_rays`).
+
+        The body first: the person's rays start on it and about 45% end on it (measured at the demo
+        settings), and its small BVH answers in less time than the room's would for the same rays.
+        """
+        if self.person is None:
+            return self.static.occluded_rays(origins, dirs, lengths)
+        occ = self.person.occluded_rays(origins, dirs, lengths)
+        live = np.flatnonzero(~occ)
+        occ[live] = self.static.occluded_rays(origins[live], dirs[live], lengths[live])
         return occ
 
     def occluded(self, a, b, normal_a=None, normal_b=None) -> np.ndarray:

@@ -26,6 +26,8 @@ class RenderSettings:
     """torch dtype name for everything after ray casting ('float64' for gradcheck)."""
     fuse: bool = False
     """Compile the per-person pair kernels with torch.compile (``render/fused.py``; no-gradient calls only)."""
+    pair_loops: bool = True
+    """On CPU, no-gradient calls sum the per-person pairs in compiled loops (``render/pair_loops.py``)."""
     device: str = "auto"
     """'cpu', 'cuda' or 'auto' (cuda when available)."""
 

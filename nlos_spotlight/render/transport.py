@@ -33,6 +33,7 @@ from .brdf import brdf
 from .fused import pair_kernels
 from .camera import pixel_rays
 from .kernels import pair_geometry
+from . import pair_loops
 from .person import Person, as_translation
 from .rays import RayEngine, SceneRays, pair_rays
 from .spot import cone_directions, spot_profile
@@ -282,6 +283,36 @@ class Renderer:
             vis[need] = self._t(~occ)
         return vis
 
+    def _loops(self, *tensors) -> bool:
+        """Sum pairs in compiled loops: CPU, enabled, and no gradient asked of these tensors."""
+        return self.settings.pair_loops and self.device.type == "cpu" and not (
+            torch.is_grad_enabled() and any(t.requires_grad for t in tensors))
+
+    def _loop_pairs(self, pa, na, front, o, nb, closed: bool, rays: SceneRays):
+        """(start, body index, visible) of the pairs that carry light, a-major (``pair_loops``)."""
+        pair_loops.set_threads(torch.get_num_threads())
+        args = [x.detach().numpy() for x in (pa, na, front.reshape(-1), o, nb)] + [bool(closed)]
+        start = pair_loops.pair_start(pair_loops.need_counts(*args))
+        org, dirs, length, idx = pair_loops.shadow_rays(*args, start)
+        return start, idx, ~rays.occluded_rays(org, dirs, length)
+
+    def _radiosity_loops(self, src, to_proj, lit, glossy: bool, w, group, groups, o, pts, person, rays):
+        """``fused.radiosity`` of the spot samples ``src`` over the unblocked pairs only."""
+        start, idx, vis = self._loop_pairs(src["pos"], src["normal"], lit, o, pts["normal"], person.closed, rays)
+        g = group.numpy()
+        np_ = {k: src[k].detach().numpy() for k in ("pos", "normal", "kd", "ks", "alpha")}
+        f, b = pair_loops.radiosity(np_["pos"], np_["normal"], to_proj.numpy(), np_["kd"], np_["ks"], np_["alpha"],
+                                    glossy, w.detach().numpy(), pair_loops.group_runs(g), g, o.detach().numpy(),
+                                    pts["normal"].numpy(), start, idx, vis, groups)
+        return self._t(f), self._t(b)
+
+    def _gather_loops(self, rp, rn, cos_c, o, pts, person, rays):
+        """``fused.gather_weights`` over the unblocked pairs only: (P, N) front and back weights."""
+        start, idx, vis = self._loop_pairs(rp, rn, cos_c, o, pts["normal"], person.closed, rays)
+        wf, wb = pair_loops.gather_weights(rp.numpy(), rn.numpy(), o.detach().numpy(), pts["normal"].numpy(),
+                                           pts["area"].numpy(), start, idx, vis)
+        return self._t(wf), self._t(wb)
+
     def _person_terms(self, y, person, translation, want) -> dict[str, torch.Tensor]:
         if person is None:
             zero = torch.zeros(*self.shape, 3, device=self.device, dtype=self.dtype)
@@ -341,9 +372,13 @@ class Renderer:
             src = {k: v[ii] for k, v in self.spot_pts.items()}
             w = self.spot_flux[ii] if per_spot else self.spot_flux[ii] * y[self.spot_owner[ii]].unsqueeze(-1)
             lit = (src["normal"] * self.spot_to_proj[ii]).sum(-1, keepdim=True)
+            group = owner[ii] if per_spot else torch.zeros_like(ii)
+            if self._loops(w, o):
+                f, b = self._radiosity_loops(src, self.spot_to_proj[ii], lit, gl, w, group, groups, o, pts, person, rays)
+                lf, lb = lf + f, lb + b
+                continue
             need = self.kernels("pair_need", src["pos"], src["normal"], lit, o, pts["normal"], person.closed)
             vis = self._visible(rays, src["pos"], src["normal"], o, pts["normal"], need)
-            group = owner[ii] if per_spot else torch.zeros_like(ii)
             f, b = self.kernels("radiosity", src["pos"], src["normal"], self.spot_to_proj[ii], src["kd"],
                                 src["ks"] if gl else None, src["alpha"] if gl else None, o, pts["normal"], vis, w,
                                 group, groups)
@@ -403,9 +438,12 @@ class Renderer:
             sl = slice(a, a + self.settings.chunk)
             rp, rn = r.pts["pos"][sl], r.pts["normal"][sl]
             cos_c = (rn * r.to_cam[sl]).sum(-1, keepdim=True)
-            need = self.kernels("pair_need", rp, rn, cos_c, o, pts["normal"], person.closed)
-            vis = self._visible(rays, rp, rn, o, pts["normal"], need)
-            wf, wb = self.kernels("gather_weights", rp, rn, o, pts["normal"], vis, wa)
+            if self._loops(o, wa, front, back):
+                wf, wb = self._gather_loops(rp, rn, cos_c, o, pts, person, rays)
+            else:
+                need = self.kernels("pair_need", rp, rn, cos_c, o, pts["normal"], person.closed)
+                vis = self._visible(rays, rp, rn, o, pts["normal"], need)
+                wf, wb = self.kernels("gather_weights", rp, rn, o, pts["normal"], vis, wa)
             rad = r.pts["kd"][sl].repeat(1, front.shape[1] // 3) / math.pi * (wf @ front + wb @ back)
             gl = r.glossy[sl]
             if gl.any():

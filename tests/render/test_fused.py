@@ -2,32 +2,16 @@
 
 from __future__ import annotations
 
-import dataclasses
 import warnings
 
-import numpy as np
 import pytest
 import torch
 
-from nlos_spotlight.render.person import Person
-from nlos_spotlight.render.transport import Renderer, RenderSettings
-from nlos_spotlight.scene.examples import SPOT_TARGET, corner_scene
-from nlos_spotlight.scene.format import Ambient
-
-SETTINGS = RenderSettings(pixel_samples=2, transport_pixel_samples=2, spot_samples=16, person_samples=64,
-                          dtype="float32", device="cpu")
-
+from conftest import glossy_corner_pair
 
 @pytest.fixture(scope="module")
 def pair():
-    sc = corner_scene("furniture", resolution=12)
-    sc.materials["paint"].specular[:] = 0.3  # glossy receivers and spot samples: the GGX kernels too
-    sc.ambient = Ambient(np.zeros(3), np.full(3, 0.05))
-    aims = np.stack([SPOT_TARGET, SPOT_TARGET + [0.25, 0, 0.1], SPOT_TARGET + [-0.3, 0, -0.2]])
-    eager = Renderer(sc, SETTINGS, aim_points=aims)
-    fused = Renderer(sc, dataclasses.replace(SETTINGS, fuse=True), aim_points=aims)
-    person = Person.from_mesh(sc.human.mesh, sc.human.albedo, SETTINGS.person_samples, "faces")
-    return eager, fused, person
+    return glossy_corner_pair(64, "float32", fuse=True)
 
 
 def _fused_or_skip(fn):
