@@ -150,23 +150,39 @@ def radiosity(sp, sn, to_proj, kd, ks, alpha, glossy, w, runs, group, o, nb, sta
 
 
 @njit(cache=True, parallel=True)
-def gather_weights(rp, rn, o, nb, area, start, idx, visible):
-    """(P, N) weights G V a of body sample n's front and back side seen from sub-sample p, as
-    ``fused.gather_weights`` (zero for pairs without light or with a blocked ray)."""
+def gather_weights(rp, rn, to_cam, cos_c, alpha, gl_row, n_gl, o, nb, area, start, idx, visible):
+    """The weights of ``fused.gather_weights`` and ``fused.glossy_lobe`` over the unblocked pairs.
+
+    Returns wf, wb (P, N): G V a of body sample n's front and back side seen from sub-sample p
+    (zero for pairs without light or with a blocked ray); sf, sb (n_gl, N): the same times the GGX
+    factor, for the sub-samples with ``gl_row`` >= 0 (their row there); and whether any back-side
+    weight is non-zero (never for a closed body).
+    """
     wf = np.zeros((rp.shape[0], o.shape[0]), rp.dtype)
     wb = np.zeros((rp.shape[0], o.shape[0]), rp.dtype)
+    sf = np.zeros((n_gl, o.shape[0]), rp.dtype)
+    sb = np.zeros((n_gl, o.shape[0]), rp.dtype)
+    backs = np.zeros(rp.shape[0], np.bool_)
     for p in prange(rp.shape[0]):
+        g = gl_row[p]
         for k in range(start[p], start[p + 1]):
             if not visible[k]:
                 continue
             b = idx[k]
-            _, _, _, r2, cos_a, cos_b = _pair(rp, rn, o, nb, p, b)
+            dx, dy, dz, r2, cos_a, cos_b = _pair(rp, rn, o, nb, p, b)
             v = abs(cos_a) * abs(cos_b) / r2 * area[b]
-            if cos_b > 0:
-                wf[p, b] = v
-            else:
-                wb[p, b] = v
-    return wf, wb
+            if cos_b <= 0:
+                backs[p] = True
+            (wf if cos_b > 0 else wb)[p, b] = v
+            if g >= 0:
+                hx, hy, hz = dx + to_cam[p, 0], dy + to_cam[p, 1], dz + to_cam[p, 2]
+                hn = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-12)
+                cos_h = abs((rn[p, 0] * hx + rn[p, 1] * hy + rn[p, 2] * hz) / hn)
+                al = alpha[p]
+                spec = _ggx_d(cos_h, al) * _smith_g1(cos_a, al) * _smith_g1(cos_c[p], al)
+                spec /= 4 * max(abs(cos_a), COS_EPS) * max(abs(cos_c[p]), COS_EPS)
+                (sf if cos_b > 0 else sb)[g, b] = v * spec
+    return wf, wb, sf, sb, backs.any()
 
 
 def set_threads(n: int) -> None:

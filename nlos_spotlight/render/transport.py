@@ -306,12 +306,23 @@ class Renderer:
                                     pts["normal"].numpy(), start, idx, vis, groups)
         return self._t(f), self._t(b)
 
-    def _gather_loops(self, rp, rn, cos_c, o, pts, person, rays):
-        """``fused.gather_weights`` over the unblocked pairs only: (P, N) front and back weights."""
+    def _gather_loops(self, sl, cos_c, o, pts, person, rays, front, back) -> torch.Tensor:
+        """One block of sub-samples of :meth:`_gather` over the unblocked pairs only: (P, C) radiance."""
+        r = self.recv_t
+        rp, rn = r.pts["pos"][sl], r.pts["normal"][sl]
         start, idx, vis = self._loop_pairs(rp, rn, cos_c, o, pts["normal"], person.closed, rays)
-        wf, wb = pair_loops.gather_weights(rp.numpy(), rn.numpy(), o.detach().numpy(), pts["normal"].numpy(),
-                                           pts["area"].numpy(), start, idx, vis)
-        return self._t(wf), self._t(wb)
+        gl = r.glossy[sl].numpy()
+        gl_row = np.where(gl, np.cumsum(gl) - 1, -1)
+        wf, wb, sf, sb, backs = pair_loops.gather_weights(
+            rp.numpy(), rn.numpy(), r.to_cam[sl].numpy(), cos_c.reshape(-1).numpy(), r.pts["alpha"][sl].numpy(),
+            gl_row, int(gl.sum()), o.detach().numpy(), pts["normal"].numpy(), pts["area"].numpy(), start, idx, vis)
+        wf, sf = torch.from_numpy(wf), torch.from_numpy(sf)
+        rad = wf @ front + torch.from_numpy(wb) @ back if backs else wf @ front  # a closed body: no back light
+        rad = r.pts["kd"][sl].repeat(1, front.shape[1] // 3) / math.pi * rad
+        if len(sf):
+            spec = sf @ front + torch.from_numpy(sb) @ back if backs else sf @ front
+            rad[torch.from_numpy(gl)] += r.pts["ks"][sl][torch.from_numpy(gl)].repeat(1, front.shape[1] // 3) * spec
+        return rad
 
     def _person_terms(self, y, person, translation, want) -> dict[str, torch.Tensor]:
         if person is None:
@@ -439,11 +450,11 @@ class Renderer:
             rp, rn = r.pts["pos"][sl], r.pts["normal"][sl]
             cos_c = (rn * r.to_cam[sl]).sum(-1, keepdim=True)
             if self._loops(o, wa, front, back):
-                wf, wb = self._gather_loops(rp, rn, cos_c, o, pts, person, rays)
-            else:
-                need = self.kernels("pair_need", rp, rn, cos_c, o, pts["normal"], person.closed)
-                vis = self._visible(rays, rp, rn, o, pts["normal"], need)
-                wf, wb = self.kernels("gather_weights", rp, rn, o, pts["normal"], vis, wa)
+                out[sl] = self._gather_loops(sl, cos_c, o, pts, person, rays, front, back)
+                continue
+            need = self.kernels("pair_need", rp, rn, cos_c, o, pts["normal"], person.closed)
+            vis = self._visible(rays, rp, rn, o, pts["normal"], need)
+            wf, wb = self.kernels("gather_weights", rp, rn, o, pts["normal"], vis, wa)
             rad = r.pts["kd"][sl].repeat(1, front.shape[1] // 3) / math.pi * (wf @ front + wb @ back)
             gl = r.glossy[sl]
             if gl.any():
