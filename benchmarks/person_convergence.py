@@ -45,7 +45,7 @@ from nlos_spotlight.render.transport import Renderer, RenderSettings
 from nlos_spotlight.world.body import POSTURES, posed_body, sample_body_params
 from nlos_spotlight.world.rooms import RoomConfig, generate_room, person_positions
 
-OLD_MC_SAMPLES = {"tiny": 192, "demo": 192, "small": 256, "paper": 512}
+OLD_MC_SAMPLES = {"tiny": 192, "demo": 192, "demo-room": 192, "small": 256, "paper": 512}
 """``person_samples`` of the presets when they used the ``mc`` sampler."""
 BATCH = 4000
 """Body samples per render of the reference (the light is a sum over samples)."""

@@ -1,8 +1,8 @@
 """Time one 64x64 image (all components) for one person and one spot after the per-scene precompute.
 
 Prints the precompute time, the per-image time of DESIGN section 5's five components and its ratio
-to the 50 ms goal (eager, and with
-the pair kernels fused by torch.compile, ``RenderSettings.fuse``, compiled during the warm-up),
+to the 50 ms goal (the person's pairs in compiled loops, ``RenderSettings.pair_loops``, the default;
+and in torch, eager or fused by torch.compile, ``RenderSettings.fuse``, compiled during the warm-up),
 the per-image time of the slow reference implementation on the same samples (measured in this
 run, on a smaller image), and peak memory (RSS; CUDA peak when on a GPU).
 
@@ -62,8 +62,11 @@ def main() -> None:
     sc = corner_scene("example", args.res)
     rss0 = rss_mb()
     fast = RenderSettings(transport_pixel_samples=1, person_samples=256, spot_samples=32)
+    torch_k = dict(pair_loops=False)  # the person's pairs in torch (eager, or fused by torch.compile)
     presets = {"default": RenderSettings(), "fast": fast,
-               "default, fused": RenderSettings(fuse=True), "fast, fused": dataclasses.replace(fast, fuse=True)}
+               "default, torch": RenderSettings(**torch_k), "fast, torch": dataclasses.replace(fast, **torch_k),
+               "default, torch.compile": RenderSettings(fuse=True, **torch_k),
+               "fast, torch.compile": dataclasses.replace(fast, fuse=True, **torch_k)}
     results = {}
     for name, settings in presets.items():
         per_image, t_pre, nlos, r = time_image(sc, settings, args.repeats)

@@ -51,8 +51,8 @@ class DatasetConfig:
     """Renderer: n x n sub-samples per pixel for the person terms."""
     spot_samples: int = 16
     """Renderer: projector rays per candidate spot."""
-    person_samples: int = 1500
-    """Renderer: body samples (faces rule, 1500 faces: n 1500 -> ~2100 samples, <= 0.8% error; 4000: <= 0.4%)."""
+    person_samples: int = 3500
+    """Renderer: body samples (faces rule on 1500 faces: n 1500 -> ~2100 samples, <= 0.8% error; 3500: <= 0.5%)."""
     person_quadrature: str = "faces"
     """Renderer: body sampling rule, 'faces' (per-face centroid rule, >= 1 sample a face) or 'mc' (render/person.py)."""
     families: list[str] = field(default_factory=list)
@@ -78,17 +78,18 @@ class DatasetConfig:
 
 
 PRESETS = {
-    # tests only: Monte Carlo bodies at 192 samples (several % error) keep the suite fast
-    "tiny": DatasetConfig(person_samples=192, person_quadrature="mc"),
-    "demo": DatasetConfig(name="demo", train_scenes=10, val_scenes=0, test_scenes=3, samples_per_scene=24,
-                          trajectories_per_test_scene=1, trajectories_per_train_scene=1, trajectory_frames=20,
-                          resolution=32, los_vertices=200,
-                          person_samples=192, person_quadrature="mc"),  # make demo's 20-minute budget
+    # the body light of every preset is within 0.5% of a converged render (faces rule, 3500 -> ~3850
+    # samples: worst of six postures 0.42% at these settings; benchmarks/person_convergence.py)
+    "tiny": DatasetConfig(person_samples=3500),
+    # make demo's 20-minute budget: ~0.7 s per full-transport person at these settings
+    "demo": DatasetConfig(name="demo", train_scenes=10, val_scenes=0, test_scenes=3, samples_per_scene=16,
+                          trajectories_per_test_scene=1, trajectories_per_train_scene=1, trajectory_frames=12,
+                          resolution=32, los_vertices=120, person_samples=3500),
     # make demo's seen room: one room, its people by the hundred as image samples (learning that works)
     "demo-room": DatasetConfig(name="demo-room", train_scenes=1, val_scenes=0, test_scenes=0, samples_per_scene=1000,
                                transport_samples_per_scene=8, trajectories_per_test_scene=0,
                                trajectories_per_train_scene=0, resolution=32, los_vertices=200,
-                               person_samples=192, person_quadrature="mc"),
+                               person_samples=3500),
     "small": DatasetConfig(name="small", train_scenes=16, val_scenes=4, test_scenes=6, samples_per_scene=36,
                            trajectories_per_test_scene=2, trajectories_per_train_scene=1, trajectory_frames=30,
                            resolution=32, los_vertices=300, person_samples=4000),  # <= 0.5% from converged

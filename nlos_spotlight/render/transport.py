@@ -40,6 +40,10 @@ from .spot import cone_directions, spot_profile
 from .settings import RENDER_PRESETS, RenderSettings  # noqa: F401  (re-exported beside the renderer)
 from .surface import StaticSurfaces, SurfacePoints
 
+INTER_CACHE_SPOTS = 8
+"""Largest support of y whose interreflection is read from the per-candidate images."""
+INTER_CACHE_SIZE = 256
+"""Candidates' interreflection images kept per renderer (48 kB each at 64 x 64)."""
 COMPONENTS = ("direct", "interreflection", "ambient", "nlos", "nlos_ambient", "nlos_shadow")
 DEFAULT_COMPONENTS = ("direct", "ambient", "nlos", "nlos_ambient")
 
@@ -248,7 +252,29 @@ class Renderer:
         return torch.nonzero(y[self.spot_owner] != 0).flatten()
 
     def _interreflection(self, y: torch.Tensor) -> torch.Tensor:
-        """One LOS-LOS bounce: P -> x_s -> x_p -> C."""
+        """One LOS-LOS bounce: P -> x_s -> x_p -> C, as sum_t y_t I_t over y's support.
+
+        The image I_t of each candidate is computed on its first use and kept (a static term, like
+        the columns of D, but too costly to compute for every candidate up front: tens of ms a
+        spot), since a spot stays fixed while people move. A y with a gradient or with more than
+        :data:`INTER_CACHE_SPOTS` candidates is summed directly instead.
+        """
+        sup = torch.nonzero(y).flatten()
+        if y.requires_grad or len(sup) > INTER_CACHE_SPOTS:
+            return self._interreflection_sum(y)
+        cache = self.__dict__.setdefault("_inter_cache", {})
+        for t in sup.tolist():
+            if t not in cache:
+                if len(cache) >= INTER_CACHE_SIZE:
+                    cache.pop(next(iter(cache)))  # the oldest
+                cache[t] = self._interreflection_sum(self.spot_vector(t))
+        out = torch.zeros(*self.shape, 3, device=self.device, dtype=self.dtype)
+        for t in sup.tolist():
+            out = out + y[t] * cache[t]
+        return out
+
+    def _interreflection_sum(self, y: torch.Tensor) -> torch.Tensor:
+        """:meth:`_interreflection` summed over y's active spot samples (differentiable in y)."""
         idx = self._active(y)
         r = self.recv_t  # a per-spot pair sum like the person terms: same sub-sample budget
         src = {k: v[idx] for k, v in self.spot_pts.items()}

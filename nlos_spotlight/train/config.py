@@ -114,7 +114,7 @@ class TrainConfig:
 
 PRESETS = {
     "tiny": TrainConfig(),
-    "demo": TrainConfig(name="demo", steps=200, batch_size=16, scenes_per_step=4, ckpt_every=50, log_every=10,
+    "demo": TrainConfig(name="demo", steps=150, batch_size=16, scenes_per_step=4, ckpt_every=50, log_every=10,
                         snr_weight=1.0, holdout_every=6, net=NLOSNetConfig(background_subtract=True)),
     "small": TrainConfig(name="small", steps=600, batch_size=16, scenes_per_step=4, ckpt_every=100, log_every=20,
                          snr_weight=1.0, holdout_every=6, net=NLOSNetConfig(background_subtract=True)),

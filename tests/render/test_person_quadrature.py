@@ -102,23 +102,23 @@ def light(r, body, albedo, t, n, quadrature, batch=6000) -> torch.Tensor:
     return out
 
 
-def test_person_light_within_goal_at_dataset_settings(room_and_body):
-    """The bodies of the result presets (small, paper: the faces rule at 4000) within the 0.5% goal
-    of a 4x finer quadrature; the learning-curve datasets' 1500 (one a face) within their
-    documented 1% and farther than 4000 (the rule converges)."""
-    from nlos_spotlight.data.config import PRESETS
-
-    cfg, r, body, albedo, t = room_and_body
-    results = [PRESETS["small"], PRESETS["paper"]]
-    assert all(p.person_quadrature == "faces" and p.person_samples == cfg.person_samples for p in results)
-    ref = light(r, body, albedo, t, 4 * cfg.person_samples, "faces")
+def test_person_light_within_goal_at_every_preset(room_and_body):
+    """The body of every dataset preset (the faces rule, 3500 or 4000) within the 0.5% goal of a 4x
+    finer quadrature; the learning-curve and unseen-room datasets' 1500 within their documented 1%
+    and farther (the rule converges). The error is the body's: the presets' renderer settings
+    change it by under 0.05% (``benchmarks/person_convergence.py``), so one room at ``small``'s
+    settings stands for all."""
+    _, r, body, albedo, t = room_and_body
+    assert all(p.person_quadrature == "faces" for p in PRESETS.values())
+    ns = sorted({p.person_samples for p in PRESETS.values()})
+    ref = light(r, body, albedo, t, 4 * max(ns), "faces")
     assert ref.norm() > 0
     errs = {}
-    for n, bound in ((cfg.person_samples, GOAL), (1500, 0.01)):
+    for n, bound in [(n, GOAL) for n in ns] + [(1500, 0.01)]:
         errs[n] = err = float((light(r, body, albedo, t, n, "faces") - ref).norm() / ref.norm())
         print(f"faces rule at {n}: {err:.3%} from a 4x finer quadrature")
         assert err < bound, f"faces rule at {n} samples: {err:.2%} from converged"
-    assert errs[cfg.person_samples] < errs[1500]
+    assert errs[min(ns)] < errs[1500]
 
 
 def test_closed_body_wound_inward_gets_the_same_light():

@@ -39,6 +39,20 @@ def test_linear_in_spot_vector(setup):
         assert torch.allclose(a[k], b[k] + 3 * c[k], rtol=1e-10, atol=1e-16)
 
 
+def test_interreflection_cache_equals_the_direct_sum(setup):
+    """The per-candidate interreflection images (kept on first use) sum to the direct pair sum."""
+    _, r, _ = setup
+    y = torch.tensor([0.7, 0.0, 1.3], dtype=torch.float64)
+    want = r._interreflection_sum(y)
+    assert float(want.abs().max()) > 0
+    for _ in range(2):  # the second call reads the cache
+        got = r.render(y, None, components=("interreflection",))["interreflection"]
+        assert torch.allclose(got, want, rtol=1e-10, atol=1e-16)
+    assert {0, 2} <= set(r._inter_cache)
+    yg = y.clone().requires_grad_(True)  # with a gradient: summed directly, still equal
+    assert torch.allclose(r.render(yg, None, components=("interreflection",))["interreflection"], want, rtol=1e-10)
+
+
 def test_spot_changes_the_image(setup):
     _, r, person = setup
     imgs = [r.render(r.spot_vector(i), person, components=("nlos",))["nlos"] for i in range(3)]
