@@ -38,7 +38,7 @@ def cmd_render(args: argparse.Namespace) -> None:
     out = output_file(args.out, "--out")
     if out.suffix != ".npy":
         raise NlosError(f"--out: expected a .npy path, got {out}")
-    base = RENDER_PRESETS["single-image"]  # the flags' defaults: one place, render/transport.py
+    base = RENDER_PRESETS[args.preset]  # the flags' defaults: one place, render/settings.py
     counts = {"pixel_samples": "pixel_samples", "transport_samples": "transport_pixel_samples",
               "person_samples": "person_samples", "spot_samples": "spot_samples"}
     for flag, field_name in counts.items():
@@ -289,6 +289,8 @@ def build_parser() -> argparse.ArgumentParser:
                                             "scene's sensor setting, else 1)")
     r.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
     r.add_argument("--out", required=True, help="output .npy, float32 (height, width, 3)")
+    r.add_argument("--preset", choices=[k for k in RENDER_PRESETS if k != "default"], default="single-image",
+                   help="sample counts the flags below start from (single-image; fast: a frame at video rate)")
     one = RENDER_PRESETS["single-image"]
     r.add_argument("--pixel-samples", type=int, help=f"n x n sub-samples per pixel, per-scene terms ({one.pixel_samples})")
     r.add_argument("--transport-samples", type=int,

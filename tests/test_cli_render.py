@@ -133,3 +133,22 @@ def test_bad_paths_and_values_name_themselves(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("NLOS_DEBUG", "1")
     with pytest.raises(NlosError):
         main(base + ["--out", str(tmp_path / "a_dir.npy")])
+
+
+def test_render_preset_sets_the_sample_counts(tmp_path):
+    """``--preset fast`` is the fast settings' counts (flags still override them)."""
+    from nlos_spotlight.cli import main
+    from nlos_spotlight.demo import bundled_scene
+    from nlos_spotlight.render.settings import RENDER_PRESETS
+
+    from nlos_spotlight.scene.examples import SPOT_TARGET
+
+    fast = RENDER_PRESETS["fast"]
+    args = ["render", str(bundled_scene()), "--spot-point", ",".join(map(str, SPOT_TARGET)), "--components", "nlos"]
+    assert main([*args, "--preset", "fast", "--out", str(tmp_path / "a.npy")]) == 0
+    explicit = ["--pixel-samples", str(fast.pixel_samples), "--transport-samples", str(fast.transport_pixel_samples),
+                "--person-samples", str(fast.person_samples), "--spot-samples", str(fast.spot_samples)]
+    assert main([*args, *explicit, "--out", str(tmp_path / "b.npy")]) == 0
+    assert main([*args, "--preset", "fast", "--person-samples", "64", "--out", str(tmp_path / "c.npy")]) == 0
+    a, b, c = (np.load(tmp_path / f"{k}.npy") for k in "abc")
+    assert a.sum() > 0 and np.array_equal(a, b) and not np.allclose(a, c)
