@@ -39,7 +39,7 @@ RENDER_PRESETS = {
 }
 """Named render settings: ``default`` (per-person rendering in datasets takes its counts from the
 dataset config), ``single-image`` (``nlos render``: one image, more samples for less noise),
-``fast`` (a frame at video rate: 44 ms for a 64 x 64 image after the precompute on 2 CPU cores,
+``fast`` (a frame at video rate: 44-47 ms for a 64 x 64 image after the precompute on 2 CPU cores,
 ``benchmarks/render_speed.py``; its ``nlos`` is within 3.3% of ``default``'s in total)."""
 
 __all__ = ["RENDER_PRESETS", "RenderSettings"]
