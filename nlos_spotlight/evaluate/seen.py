@@ -45,18 +45,22 @@ class RoomSplit:
     """Held-out people the results are reported on."""
 
 
-def split_room(s: SceneTensors, period: int = 10, max_eval: int = 100) -> RoomSplit:
-    """Static samples by index: k % period == period - 1 test, == period - 2 validation (the first
-    ``max_eval`` of each, so a room still being generated keeps the same test people as it grows),
-    every other static sample the training pool in index order."""
+def split_masks(s: SceneTensors, period: int = 10, max_eval: int = 100) -> tuple[torch.Tensor, ...]:
+    """(pool, validation, test) bool masks over the samples: static samples by index, k % period ==
+    period - 1 test, == period - 2 validation (the first ``max_eval`` of each, so a room still being
+    generated keeps the same test people as it grows), every other static sample the pool."""
     k = torch.arange(s.num_samples)
     static = s.trajectory[:, 0] < 0
     first = lambda m: m & (torch.cumsum(m.long(), 0) <= max_eval)
     test = first(static & (k % period == period - 1))
     val = first(static & (k % period == period - 2))
-    pool = static & ~test & ~val  # beyond the first max_eval, residues period-2 and -1 train too
+    return static & ~test & ~val, val, test  # beyond the first max_eval, residues period-2 and -1 train too
+
+
+def split_room(s: SceneTensors, period: int = 10, max_eval: int = 100) -> RoomSplit:
+    """The room's samples split by :func:`split_masks`, the training pool in index order."""
     take = lambda m: s.subset(torch.nonzero(m).flatten())
-    return RoomSplit(take(pool), take(val), take(test))
+    return RoomSplit(*(take(m) for m in split_masks(s, period, max_eval)))
 
 
 @dataclass
@@ -249,4 +253,4 @@ def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs
 
 
 __all__ = ["GROUPS", "RoomSplit", "SeenResult", "mean_answer_cm", "run_seen", "score", "score_rooms", "seen_config",
-           "split_room", "train_validated"]
+           "split_masks", "split_room", "train_validated"]
