@@ -112,6 +112,17 @@ def _smith_g1(cos_v, alpha):
     return 2 / (1 + math.sqrt(1 + alpha * alpha * tan2))
 
 
+@njit(cache=True, inline="always")
+def _ggx_lobe(n, a, wx, wy, wz, vx, vy, vz, cos_w, cos_v, alpha):
+    """GGX factor D G1 G1 / (4 |cos_w| |cos_v|) at the point of normal ``n[a]`` between the unit
+    directions w and v (``brdf.brdf``'s glossy lobe without ks)."""
+    hx, hy, hz = wx + vx, wy + vy, wz + vz
+    hn = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-12)
+    cos_h = abs((n[a, 0] * hx + n[a, 1] * hy + n[a, 2] * hz) / hn)
+    spec = _ggx_d(cos_h, alpha) * _smith_g1(cos_w, alpha) * _smith_g1(cos_v, alpha)
+    return spec / (4 * max(abs(cos_w), COS_EPS) * max(abs(cos_v), COS_EPS))
+
+
 @njit(cache=True, parallel=True)
 def radiosity(sp, sn, to_proj, kd, ks, alpha, glossy, w, runs, group, o, nb, start, idx, visible, groups):
     """Sum over spot samples s of f_s G(s, n) w_s for the unblocked pairs, per group and side of n.
@@ -136,12 +147,8 @@ def radiosity(sp, sn, to_proj, kd, ks, alpha, glossy, w, runs, group, o, nb, sta
                 geo = abs(cos_a) * abs(cos_b) / r2
                 spec = 0.0
                 if glossy:
-                    hx, hy, hz = to_proj[s, 0] + dx, to_proj[s, 1] + dy, to_proj[s, 2] + dz
-                    hn = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-12)
-                    cos_h = abs((sn[s, 0] * hx + sn[s, 1] * hy + sn[s, 2] * hz) / hn)
-                    al = alpha[s]
-                    spec = _ggx_d(cos_h, al) * _smith_g1(cos_i, al) * _smith_g1(cos_a, al)
-                    spec /= 4 * max(abs(cos_i), COS_EPS) * max(abs(cos_a), COS_EPS)
+                    spec = _ggx_lobe(sn, s, to_proj[s, 0], to_proj[s, 1], to_proj[s, 2], dx, dy, dz, cos_i, cos_a,
+                                     alpha[s])
                 out = front if cos_b > 0 else back
                 for c in range(3):
                     f = kd[s, c] / math.pi + (ks[s, c] * spec if glossy else 0.0)
@@ -175,12 +182,7 @@ def gather_weights(rp, rn, to_cam, cos_c, alpha, gl_row, n_gl, o, nb, area, star
                 backs[p] = True
             (wf if cos_b > 0 else wb)[p, b] = v
             if g >= 0:
-                hx, hy, hz = dx + to_cam[p, 0], dy + to_cam[p, 1], dz + to_cam[p, 2]
-                hn = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-12)
-                cos_h = abs((rn[p, 0] * hx + rn[p, 1] * hy + rn[p, 2] * hz) / hn)
-                al = alpha[p]
-                spec = _ggx_d(cos_h, al) * _smith_g1(cos_a, al) * _smith_g1(cos_c[p], al)
-                spec /= 4 * max(abs(cos_a), COS_EPS) * max(abs(cos_c[p]), COS_EPS)
+                spec = _ggx_lobe(rn, p, dx, dy, dz, to_cam[p, 0], to_cam[p, 1], to_cam[p, 2], cos_a, cos_c[p], alpha[p])
                 (sf if cos_b > 0 else sb)[g, b] = v * spec
     return wf, wb, sf, sb, backs.any()
 

@@ -185,9 +185,4 @@ class SceneRays:
         return (self.static if self.person is None else self.joined).occluded_rays(origins, dirs, lengths)
 
     def occluded(self, a, b, normal_a=None, normal_b=None) -> np.ndarray:
-        occ = self.static.occluded(a, b, normal_a, normal_b)
-        if self.person is not None:
-            live = ~occ
-            occ[live] = self.person.occluded(a[live], b[live], None if normal_a is None else normal_a[live],
-                                             None if normal_b is None else normal_b[live])
-        return occ
+        return (self.static if self.person is None else self.joined).occluded(a, b, normal_a, normal_b)

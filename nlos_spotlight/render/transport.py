@@ -103,6 +103,7 @@ class Renderer:
         self._spot_samples()
         self.D = self._direct_matrix()
         self.ambient_image = self._ambient()
+        self._inter_cache: dict[int, torch.Tensor] = {}  # candidate -> its interreflection image
 
     # ---------------------------------------------------------------- precompute
     def _t(self, x) -> torch.Tensor:
@@ -262,7 +263,7 @@ class Renderer:
         sup = torch.nonzero(y).flatten()
         if y.requires_grad or len(sup) > INTER_CACHE_SPOTS:
             return self._interreflection_sum(y)
-        cache = self.__dict__.setdefault("_inter_cache", {})
+        cache = self._inter_cache
         for t in sup.tolist():
             if t not in cache:
                 if len(cache) >= INTER_CACHE_SIZE:
