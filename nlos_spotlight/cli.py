@@ -305,8 +305,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--seed", type=int, help="override the config's master seed")
     g.add_argument("--quiet", action="store_true", help="no progress bar (also NLOS_QUIET=1 or CI=true)")
     g.add_argument("--fuse", action="store_true",
-                   help="compile the per-person pair kernels (torch.compile): same data, ~2.5x faster people at "
-                        "thousands of body samples, ~30 s to compile")
+                   help="compile the torch pair kernels (torch.compile) for a GPU: same data; on a CPU the "
+                        "compiled pair loops (render/pair_loops.py) serve instead and this changes nothing")
     g.set_defaults(func=cmd_generate)
     v = sub.add_parser("verify", help="check a dataset: every file's digest and every array's shape")
     v.add_argument("data_dir", help="dataset directory from nlos generate")

@@ -105,10 +105,11 @@ def generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int] = (0, 1
 
     ``threads``: torch threads while it runs (restored afterwards), see :data:`GENERATE_THREADS`.
     ``part``: (i, n), only the image samples of index i mod n within each scene
-    (``SceneBuilder.build``: several processes on one room). ``fuse``: the renderer's fused pair
-    kernels (``render/fused.py``: the same numbers to float rounding, about 2.5x faster people at
-    thousands of body samples, after ~30 s of compiling per process); an execution choice, not part
-    of the dataset's config, recorded in the shard record.
+    (``SceneBuilder.build``: several processes on one room). ``fuse``: the renderer's torch pair
+    kernels fused by torch.compile (``render/fused.py``: the same numbers to float rounding), for a
+    GPU; on a CPU the compiled pair loops (``render/pair_loops.py``) serve every person and this
+    changes nothing. An execution choice, not part of the dataset's config, recorded in the shard
+    record.
     """
     before = torch.get_num_threads()
     torch.set_num_threads(threads)
