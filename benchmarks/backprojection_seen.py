@@ -50,7 +50,7 @@ def finetune(net, rooms: list[tuple[dict, torch.Tensor, torch.Tensor]], steps: i
         net.train()
         return float(torch.cat(errs).mean()) * 100
 
-    curve, best, best_state = [(0, val_error())], float("inf"), None
+    curve = [(0, val_error())]
     best, best_state = curve[0][1], {k: v.clone() for k, v in net.state_dict().items()}
     net.train()
     for step in range(1, steps + 1):

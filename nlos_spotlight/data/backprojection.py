@@ -139,6 +139,8 @@ def backprojector(scene: Scene, origin_xy: np.ndarray, fwd_xy: np.ndarray,
                   grid: FloorGrid = FloorGrid()) -> Backprojector:
     """A room's backprojector on ``grid`` around ``origin_xy`` (the region frame's axes: ``fwd_xy``
     and its left) at the hidden floor's height."""
+    if grid.mask not in MASKS:  # before the kernel's rays
+        raise ValueError(f"backprojection mask: expected one of {', '.join(MASKS)}, got {grid.mask!r}")
     from ..render.gbuffer import render_gbuffer
     from ..render.surface import StaticSurfaces
     from ..world.placement import SceneGeometry
@@ -152,8 +154,6 @@ def backprojector(scene: Scene, origin_xy: np.ndarray, fwd_xy: np.ndarray,
     points = np.concatenate([np.column_stack([world_xy, np.full(len(cells), floor_z + h)]) for h in grid.heights])
     hit = g.hit
     kernel = camera_kernel(surf.engine, points, g.position[hit], g.normal[hit], g.albedo[hit])
-    if grid.mask not in MASKS:
-        raise ValueError(f"backprojection mask: expected one of {', '.join(MASKS)}, got {grid.mask!r}")
     rules = {} if grid.mask == "placement" else {"distance": (0.0, np.inf), "min_seen": 0.0}
     valid = SceneGeometry(scene, engine=surf.engine).valid_positions(world_xy, **rules)
     return Backprojector(cells, points, valid, kernel, hit, len(grid.heights), surf.engine)
@@ -186,5 +186,4 @@ def candidate_spot_factor(scene_dir: str, face: int, grid: FloorGrid = FloorGrid
 
 
 __all__ = ["MASKS", "Backprojector", "FloorGrid", "backprojector", "camera_kernel", "candidate_spot_factor",
-           "matched_filter",
-           "room_backprojector"]
+           "matched_filter", "room_backprojector"]

@@ -167,7 +167,8 @@ class SceneRays:
     settings (143 candidates, 3,850 body samples): a full-transport person 1.09 -> 0.62 s.
     """
 
-    def __init__(self, static: RayEngine, person: RayEngine | None = None):
+    def __init__(self, static: RayEngine, person=None):
+        """``person``: the posed body as a mesh (``vertices``, ``faces``), or None."""
         self.static = static
         self.person = person
         self._joined: RayEngine | None = None
@@ -175,8 +176,9 @@ class SceneRays:
     @property
     def joined(self) -> RayEngine:
         if self._joined is None:
-            v = np.concatenate([self.static.vertices, self.person.vertices])
-            f = np.concatenate([self.static.faces, self.person.faces + len(self.static.vertices)])
+            v = np.concatenate([self.static.vertices, np.asarray(self.person.vertices, dtype=np.float64)])
+            f = np.concatenate([self.static.faces, np.asarray(self.person.faces, dtype=np.int64)
+                                + len(self.static.vertices)])
             self._joined = RayEngine(v, f)
         return self._joined
 

@@ -15,7 +15,7 @@ import numpy as np
 import torch
 
 from .person import Person, as_translation
-from .rays import RayEngine, SceneRays
+from .rays import SceneRays
 
 
 def _f(n, wi, wo, kd, ks, alpha):
@@ -38,7 +38,7 @@ def reference_person_terms(renderer, y: torch.Tensor, person: Person, translatio
     dev, dt = renderer.device, renderer.dtype
     t = as_translation(translation, 1, dev, dt)[0]
     t_np = t.detach().cpu().numpy()
-    rays = SceneRays(renderer.static.engine, RayEngine(person.mesh.vertices + t_np, person.mesh.faces))
+    rays = SceneRays(renderer.static.engine, person.translated_mesh(t_np))
     rec = renderer.recv_t
     xp, nx = rec.pts["pos"], rec.pts["normal"]
     to_cam = rec.to_cam

@@ -35,7 +35,7 @@ from .camera import pixel_rays
 from .kernels import pair_geometry
 from . import pair_loops
 from .person import Person, as_translation
-from .rays import RayEngine, SceneRays, pair_rays
+from .rays import SceneRays, pair_rays
 from .spot import cone_directions, spot_profile
 from .settings import RENDER_PRESETS, RenderSettings  # noqa: F401  (re-exported beside the renderer)
 from .surface import StaticSurfaces, SurfacePoints
@@ -368,7 +368,7 @@ class Renderer:
 
     def _one_person(self, y, person: Person, pts, t, hidden, want) -> dict[str, torch.Tensor]:
         t_np = t.detach().cpu().numpy().astype(np.float64)
-        rays = SceneRays(self.static.engine, RayEngine(person.translated_mesh(t_np).vertices, person.mesh.faces))
+        rays = SceneRays(self.static.engine, person.translated_mesh(t_np))
         o = pts["pos"] + t
         radiance = []
         if "nlos" in want:
@@ -449,8 +449,7 @@ class Renderer:
                 raise ValueError(f"spots: expected distinct candidate indices in 0..{self.num_spots - 1}")
         t = as_translation(translation, 1, self.device, self.dtype)[0]
         pts = {k: self._t(getattr(person, k)) for k in ("pos", "normal", "area", "albedo")}
-        rays = SceneRays(self.static.engine, RayEngine(person.translated_mesh(t.detach().cpu().numpy()).vertices,
-                                                       person.mesh.faces))
+        rays = SceneRays(self.static.engine, person.translated_mesh(t.detach().cpu().numpy()))
         o = pts["pos"] + t
         lf, lb = self._person_radiosity(None, person, pts, o, rays, per_spot=True, spots=spots)
         fronts, backs = [lf], [lb]
