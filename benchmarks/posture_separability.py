@@ -22,7 +22,15 @@ class. Whitened distances grow as the square root of the frames averaged, so ``f
 the burst an ideal observer would need for d = 4 (2.3% pairwise error). Prints per-pair medians and
 writes ``--json``.
 
+Six-way, the same renders give an ideal observer's accuracy (``evaluate.ideal_observer``: nearest
+posture with everything else known, and with the seven nuisances fitted to first order), for one
+frame and for ``--frames`` (a burst): the ceiling that no network reading the photograph can pass,
+mean over the people. With ``--split test`` the people are the first static people of each room of
+a test dataset (``unseen-test.yaml``: rooms no network trained in), under the room's oracle spot.
+
     python benchmarks/posture_separability.py --data out/lc/data --people 6
+    python benchmarks/posture_separability.py --data out/unseen/test --split test --people 3 \
+        --json docs/results/posture-ceiling-unseen.json
 """
 
 from __future__ import annotations
@@ -40,6 +48,8 @@ from scipy.stats import norm
 from nlos_spotlight.data.config import DatasetConfig
 from nlos_spotlight.data.generate import plan
 from nlos_spotlight.evaluate.crb import PERSON
+from nlos_spotlight.evaluate.ideal_observer import ideal_observer
+from nlos_spotlight.lighting.snr import candidate_snr
 from nlos_spotlight.render.person import Person
 from nlos_spotlight.render.sensor import auto_exposure, dn_per_radiance, noise_variance_dn
 from nlos_spotlight.render.transport import Renderer
@@ -92,6 +102,30 @@ def distances(delta: torch.Tensor, jac: torch.Tensor, sigma: torch.Tensor) -> tu
     return float(d.norm()), float((d - (j @ coef)[:, 0]).norm())
 
 
+def room_people(cfg: DatasetConfig, p, builder, scene, people: int, split: str) -> list[dict]:
+    """The people whose postures are compared: the seen-room test people of a training room, or the
+    first static people of a test room."""
+    if split == "train":
+        return seen_test_specs(cfg, p, builder, scene, people)
+    specs = builder._specs(scene)
+    return [specs[k] | {"index": k} for k in range(len(specs)) if specs[k]["trajectory"] < 0][:people]
+
+
+def oracle_face(data: Path, room: str) -> int:
+    """The room's best spot: ``spots.json``'s first by SNR, else the stored people's SNR argmax."""
+    spots = data / "scenes" / room / "spots.json"
+    if spots.exists():
+        return int(json.loads(spots.read_text())["snr_top"][0])
+    return int(np.argmax(candidate_snr(data / "scenes" / room)))
+
+
+def six_way(mu: dict, jac: dict, sigma: torch.Tensor, frames: list[int]) -> dict:
+    """Ideal observers' six-way confusion matrices for one person, per frame count."""
+    means = torch.stack([mu[q].reshape(-1) / sigma for q in POSTURES])
+    jacs = torch.stack([jac[q] / sigma[:, None] for q in POSTURES])
+    return {f: ideal_observer(means, jacs, frames=f, draws=4000) for f in frames}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", required=True)
@@ -99,24 +133,28 @@ def main() -> None:
     ap.add_argument("--rooms", type=int, default=0, help="first ROOMS training rooms (0: all)")
     ap.add_argument("--json", default="docs/results/posture-separability.json")
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--split", default="train", choices=("train", "test"), help="rooms the people come from")
+    ap.add_argument("--frames", type=int, default=16, help="burst for the six-way ceiling beside one frame")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     data = Path(args.data)
     cfg = DatasetConfig(**json.loads((data / "config.json").read_text()))
-    rooms = [p for p in plan(cfg) if p.split == "train"]
+    rooms = [p for p in plan(cfg) if p.split == args.split]
     rooms = rooms[:args.rooms] if args.rooms else rooms
     pairs = list(itertools.combinations(POSTURES, 2)) + [(p, p) for p in POSTURES]
     found: dict[str, list[tuple[float, float]]] = {f"{a}/{b}": [] for a, b in pairs}
     snr: list[float] = []
+    frames = sorted({1, args.frames})
+    conf = {f: [] for f in frames}
     for p in rooms:
-        face = int(json.loads((data / "scenes" / p.id / "spots.json").read_text())["snr_top"][0])
+        face = oracle_face(data, p.id)
         b, scene, r = room_renderer(cfg, p, data, [face])
         y = r.spot_vector(0)
         sensor = capture_sensor(r.shape)
         static = r.render(y, None, components=("direct", "ambient")).image.double()
         exposure = auto_exposure(static, sensor)
         k = dn_per_radiance(exposure, sensor)
-        for spec in seen_test_specs(cfg, p, b, scene, args.people):
+        for spec in room_people(cfg, p, b, scene, args.people, args.split):
             base, t = spec["params"], np.array([*spec["position"], scene.hidden_region.floor_z])
             per = {q: dataclasses.replace(base, posture=q) for q in POSTURES}
             mu = {q: light(r, y, per[q], t, cfg) for q in POSTURES}
@@ -130,8 +168,24 @@ def main() -> None:
                     delta = (mu[a] - mu[b2]).reshape(-1)
                 found[f"{a}/{b2}"].append(distances(delta, (jac[a] + jac[b2 if a != b2 else a]) / 2, sigma))
             snr.append(float((mu["standing"].reshape(-1) / sigma).norm()))
-            print(f"room {p.id} person {spec['index']}: exposure {exposure:.3f} s, person SNR {snr[-1]:.1f}", flush=True)
-    out = {"person_snr_median": round(float(np.median(snr)), 2), "burst_frames": capture_sensor((1, 1)).burst_frames}
+            obs = six_way(mu, jac, sigma, frames)
+            for f in frames:
+                conf[f].append(obs[f])
+            acc = " ".join(f"{f} frame(s) {100 * obs[f].accuracy[0]:.0f}% / {100 * obs[f].accuracy[1]:.0f}%" for f in frames)
+            print(f"room {p.id} person {spec['index']}: exposure {exposure:.3f} s, person SNR {snr[-1]:.1f}, "
+                  f"six-way ideal observer (known / nuisances fitted): {acc}", flush=True)
+    out = {"person_snr_median": round(float(np.median(snr)), 2), "burst_frames": capture_sensor((1, 1)).burst_frames,
+           "split": args.split, "people": len(snr), "postures": list(POSTURES)}
+    for f in frames:
+        known = torch.stack([o.known for o in conf[f]]).mean(0)
+        fitted = torch.stack([o.nuisance for o in conf[f]]).mean(0)
+        out[f"six_way_{f}_frames"] = {
+            "known": round(float(known.diagonal().mean()), 4), "nuisance": round(float(fitted.diagonal().mean()), 4),
+            "nuisance_median_person": round(float(np.median([o.accuracy[1] for o in conf[f]])), 4),
+            "confusion_nuisance": np.round(fitted.numpy(), 3).tolist()}
+        print(f"six-way ideal observer, {f} frame(s), mean over {len(conf[f])} people: "
+              f"{100 * known.diagonal().mean():.1f}% everything else known, "
+              f"{100 * fitted.diagonal().mean():.1f}% nuisances fitted")
     print(f"person's light over the noise (standing, whitened norm): median {np.median(snr):.1f} over {len(snr)}")
     print(f"{'pair':24s} {'d_known':>9s} {'d_nuisance':>11s} {'error':>7s} {'frames for d=4':>15s}  (medians)")
     for key, v in found.items():

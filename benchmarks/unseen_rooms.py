@@ -39,6 +39,7 @@ import numpy as np
 import torch
 
 from nlos_spotlight.data.tensors import finished_scene_dirs, load_scene_tensors
+from nlos_spotlight.data.store import atomic_npz
 from nlos_spotlight.evaluate.seen import score_rooms, seen_config
 from nlos_spotlight.evaluate.unseen import as_pairs, mean_answer, room_lights, snr_fraction, train_unseen
 
@@ -55,12 +56,28 @@ def load_rooms(data: Path, split: str, samples: str, limit: int = 0, features: t
     return [load_scene_tensors(d, list(features), samples) for d in dirs]
 
 
+BASELINE_LIGHT = {"chandran": None, "tancik": "flash", "dlnlos": "ambient"}
+"""Baseline network (docs/baselines.md) -> the illumination it is built for (None: any stored spot)."""
+
+
 def net_config(args, net: str, rooms: int, seed: int, noise: bool):
-    cfg = seen_config(rooms, seed, noise=noise, policy="oracle", batch=args.batch, lr=args.lr, patience=args.patience,
-                      backbone=args.backbone, pool_grid=args.pool_grid)
-    cfg = dataclasses.replace(cfg, spot_augment=True, holdout_every=0, scenes_per_step=min(rooms, args.scenes_per_step),
+    """The training config of ``net``: 'image' and 'geometry' (the lighter ResNet without and with the
+    geometry channels) and the spot baselines train under every stored spot (``spot_augment``); the
+    flash and ambient baselines under their own illumination only."""
+    light = BASELINE_LIGHT.get(net)
+    cfg = seen_config(rooms, seed, noise=noise, policy=light or "oracle", batch=args.batch, lr=args.lr,
+                      patience=args.patience, backbone=args.backbone, pool_grid=args.pool_grid,
+                      arch=net if net in BASELINE_LIGHT else "resnet18")
+    cfg = dataclasses.replace(cfg, spot_augment=light is None, holdout_every=0,
+                              scenes_per_step=min(rooms, args.scenes_per_step),
                               net=dataclasses.replace(cfg.net, geometry=net == "geometry"))
     return cfg
+
+
+def net_policies(net: str, policies: list[str]) -> list[str]:
+    """The test-room policies a network is scored under (a flash or ambient baseline: its own)."""
+    light = BASELINE_LIGHT.get(net)
+    return [light] if light else policies
 
 
 def train_ien(args, rooms: list, out: Path):
@@ -87,12 +104,18 @@ def train_ien(args, rooms: list, out: Path):
 
 
 def scores(args, tr, cfg, test_rooms, policy: str, lights, out: Path) -> dict:
+    """The run's scores under ``policy``'s spots; every person's prediction goes to
+    ``predictions-POLICY-NROOMS.npz`` beside them (``unseen_rooms_table.py --per-class``)."""
     path = out / f"scores-{policy}-{len(test_rooms)}rooms.json"
-    if path.exists():
+    npz = path.with_name(f"predictions-{policy}-{len(test_rooms)}rooms.npz")
+    if path.exists() and npz.exists():
         return json.loads(path.read_text())
     res = score_rooms(tr.net, cfg.net, tr.sensor, test_rooms, as_pairs(test_rooms, lights), cfg.sensor_noise,
                       cfg.seed)
-    res.pop("per_person"), res.pop("photos")
+    per = res.pop("per_person")
+    res.pop("photos")
+    per["trajectory"] = torch.cat([s.trajectory for s in test_rooms]).numpy()  # (N, 2) walk id, frame
+    atomic_npz(npz, **per)
     path.write_text(json.dumps(res, indent=1))
     return res
 
@@ -135,6 +158,10 @@ def main() -> None:
     torch.set_num_threads(args.threads)
     sizes = [int(r) for r in args.rooms.split(",")]
     policies = [p for p in args.policies.split(",") if p]
+    nets = [n for n in args.nets.split(",") if n]
+    bad = [n for n in nets if n not in ("image", "geometry", *BASELINE_LIGHT)]
+    if bad:
+        raise SystemExit(f"--nets: unknown network '{bad[0]}' (image, geometry, {', '.join(BASELINE_LIGHT)})")
     train_all = load_rooms(args.train, "train", "images", max(sizes))
     sizes = [r for r in sizes if r <= len(train_all)] or [len(train_all)]
     val = load_rooms(args.train, "val", "images")
@@ -146,17 +173,18 @@ def main() -> None:
         raise SystemExit("--test-offset: the test rooms must come after every training room")
     print(f"{len(train_all)} training rooms, {len(val)} validation rooms, {len(test)} test rooms "
           f"({sum(s.num_samples for s in test)} test people)", flush=True)
-    lights = {p: room_lights(test, p, 0) for p in policies}
+    extra = [BASELINE_LIGHT[n] for n in nets if BASELINE_LIGHT.get(n)]
+    lights = {p: room_lights(test, p, 0) for p in policies + extra}
     if args.ien:
         tag = "-".join(feats) + (f"-prior{args.ien_prior_weight:g}" if args.ien_prior_weight else "")
         ien = train_ien(args, load_rooms(args.train, "train", "transport", max(sizes), feats),
                         args.runs / f"ien-{tag}-{args.ien_steps}steps")
         lights["ien"] = room_lights(test, "ien", 0, ien)
         policies.append("ien")
-    write_snr(args, test, lights)
+    write_snr(args, test, {p: lights[p] for p in policies})
     rows = []
     for capture in args.captures.split(","):
-        for net in args.nets.split(","):
+        for net in nets:
             for r in sizes:
                 for seed in range(args.seeds):
                     rows += run(args, net, capture, r, seed, train_all[:r], val, test, policies, lights)
@@ -172,14 +200,14 @@ def run(args, net, capture, r, seed, train, val, test, policies, lights) -> list
     steps = args.steps or max(1, round(args.epochs * per_epoch))
     every = args.val_every or max(per_epoch, steps // 25)
     cfg = dataclasses.replace(cfg, steps=steps, eval_every=every, ckpt_every=every, log_every=every)
-    variant = ("" if args.backbone == "resnet10-narrow" else f"-{args.backbone}") + \
+    variant = "" if net in BASELINE_LIGHT else ("" if args.backbone == "resnet10-narrow" else f"-{args.backbone}") + \
         ("" if args.pool_grid == 1 else f"-pool{args.pool_grid}")
     out = args.runs / f"{capture}-{net}{variant}-{r}rooms-s{seed}"
     t0 = time.perf_counter()
-    tr = train_unseen(cfg, train, val, room_lights(val, "oracle", seed), out, progress=True)
+    tr = train_unseen(cfg, train, val, room_lights(val, BASELINE_LIGHT.get(net) or "oracle", seed), out, progress=True)
     seconds = time.perf_counter() - t0
     rows = []
-    for p in policies:
+    for p in net_policies(net, policies):
         res = scores(args, tr, cfg, test, p, lights[p], out)
         rows.append({"net": net + variant, "capture": capture, "policy": p, "train_rooms": r, "seed": seed,
                      "posture_accuracy": round(res["posture_accuracy"], 2),
