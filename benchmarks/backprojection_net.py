@@ -13,7 +13,9 @@ same noisy photographs.
 
 Writes ``DIR/backprojection-net.csv`` (policy, method, error_cm, posture_accuracy, posture3_accuracy
 (upright / sitting / crouching), people) and
-``DIR/run.json`` (arguments, versions, seconds, the validation curve).
+``DIR/run.json`` (arguments, versions, seconds, the validation curve), and every test person's
+prediction under each policy in ``DIR/predictions-POLICY.npz`` (room, true_xy, pred_xy, true_posture,
+pred_posture, trajectory: the arrays of ``evaluate.seen.score_rooms``' ``per_person``).
 """
 
 from __future__ import annotations
@@ -185,6 +187,7 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(1)
     torch.manual_seed(args.seed)
+    from nlos_spotlight.data.store import atomic_npz
     from nlos_spotlight.data.tensors import finished_scene_dirs, load_scene_tensors
     from nlos_spotlight.evaluate.seen import GROUP_OF
     from nlos_spotlight.lighting import policy_rng
@@ -202,8 +205,10 @@ def main() -> None:
         net.load_state_dict(torch.load(weights, weights_only=True))
         before = json.loads((args.out / "run.json").read_text())
         curve, best = before["validation_cm"], before["best_validation_cm"]
+        train_seconds = before.get("train_seconds")  # runs scored again before this field: unknown
     else:
         net, mean_xy, curve, best = train_floor_net(args, t0)
+        train_seconds = time.perf_counter() - t0
         torch.save(net.state_dict(), weights)
     net.eval()
     rows = []
@@ -219,6 +224,8 @@ def main() -> None:
         policies.append("ien")
     acc = {(p, m): [[], [], []] for p in policies for m in ("floor-net", "matched-filter", "mean answer")}
     group = torch.as_tensor(GROUP_OF)
+    per = {p: {k: [] for k in ("room", "true_xy", "pred_xy", "true_posture", "pred_posture", "trajectory")}
+           for p in policies}
     for i, d in enumerate(test_dirs):  # rooms outside: one backprojector a room
         s = load_scene_tensors(d, feats, samples="transport")
         # the i-th test room's key, as benchmarks/unseen_rooms.py draws it (evaluate.unseen.room_lights)
@@ -232,6 +239,9 @@ def main() -> None:
             for m, p in (("floor-net", pos), ("matched-filter", cell), ("mean answer", mean_xy.expand_as(pos))):
                 acc[policy, m][0].append((p - r["target"]).norm(dim=1))
             guess = logits.argmax(1)
+            for key, v in (("room", torch.full((len(pos),), i)), ("true_xy", r["target"]), ("pred_xy", pos),
+                           ("true_posture", r["posture"]), ("pred_posture", guess), ("trajectory", s.trajectory)):
+                per[policy][key].append(v.numpy())
             acc[policy, "floor-net"][1].append(guess == r["posture"])
             acc[policy, "floor-net"][2].append(group[guess] == group[r["posture"]])
     pct = lambda c: round(float(torch.cat(c).float().mean()) * 100, 1) if c else ""
@@ -240,6 +250,8 @@ def main() -> None:
                          posture_accuracy=pct(c), posture3_accuracy=pct(c3), people=int(sum(len(x) for x in e))))
         console.print(f"{policy:9s} {m:15s} {rows[-1]['error_cm']:6.1f} cm  posture {rows[-1]['posture_accuracy']} "
                       f"/ {rows[-1]['posture3_accuracy']}")
+    for policy, cols in per.items():
+        atomic_npz(args.out / f"predictions-{policy}.npz", **{k: np.concatenate(v) for k, v in cols.items()})
     with open(args.out / "backprojection-net.csv", "w", newline="") as f:
         wr = csv.DictWriter(f, fieldnames=list(rows[0]))
         wr.writeheader()
@@ -247,7 +259,7 @@ def main() -> None:
     (args.out / "run.json").write_text(json.dumps(dict(
         args={k: str(v) for k, v in vars(args).items()}, validation_cm=curve, best_validation_cm=best,
         mean_xy=mean_xy.tolist(),
-        seconds=time.perf_counter() - t0, torch=torch.__version__, python=platform.python_version()), indent=1))
+        train_seconds=train_seconds, seconds=time.perf_counter() - t0, torch=torch.__version__, python=platform.python_version()), indent=1))
 
 
 if __name__ == "__main__":

@@ -1,0 +1,144 @@
+"""Rooms no network trained in, each fitted by simulation in its own scan (issue 12).
+
+The networks trained across 200 rooms carry position over to new rooms but not posture. The room's
+scan is known at test time (the IEN reads it), so the renderer can make training people in it, as
+``nlos fit`` does for a user's room. Hypothesis: a network trained only on simulated people of the
+test room reads posture there, and the gap to the ideal observer (``posture_separability.py
+--split test``) says how much is left.
+
+Per test room of ``--test`` (the first ``--rooms``): ``--people`` synthetic people in that room's
+scene (``DatasetConfig.room``; another master seed, so none is a test person), the first
+``--transport`` of them with full transport to choose the spot (the oracle on the synthetic people:
+nothing of the test people is used), then the seen-rooms recipe (``evaluate.seen``) on the image
+samples, best weights by validation on 100 of them. Scored on the room's real test people (the
+static ones; the default one-frame capture and noise draws of ``benchmarks/unseen_rooms.py``)
+under the spot chosen from the synthetic people and under the room's oracle spot.
+
+    python benchmarks/unseen_room_fit.py --test out/unseen/test --rooms 6 --people 1500 --out out/unseen/room-fit
+
+Writes ``--out``/room-fit.csv (room, spot, people, posture_accuracy, posture3_accuracy, error_cm,
+mean_answer_cm, test_people, render_s, train_s) and per room its data, run and predictions.
+Resumable: a room's dataset resumes, a trained room keeps ``best.pt``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+COLUMNS = ["room", "spot", "people", "posture_accuracy", "posture3_accuracy", "error_cm", "mean_answer_cm",
+           "test_people", "render_s", "train_s"]
+
+
+def room_dataset(test_cfg: dict, room: Path, people: int, transport: int, seed: int):
+    """One training room built on the test room's scene, with the test set's render settings."""
+    from nlos_spotlight.data.config import DatasetConfig
+
+    keep = ("resolution", "los_vertices", "body_faces", "person_samples", "person_quadrature", "pixel_samples",
+            "spot_samples", "transport_pixel_samples", "transport_rank", "stored_spots_top")
+    return DatasetConfig(name="room-fit", seed=seed, train_scenes=1, val_scenes=0, test_scenes=0,
+                         samples_per_scene=people, transport_samples_per_scene=transport,
+                         trajectories_per_test_scene=0, trajectories_per_train_scene=0, room=str(room.resolve()),
+                         **{k: test_cfg[k] for k in keep if k in test_cfg})
+
+
+def fit_room(args, i: int, room: Path, test_cfg: dict) -> list[dict]:
+    from nlos_spotlight.data.generate import generate
+    from nlos_spotlight.data.tensors import load_scene_tensors, load_split
+    from nlos_spotlight.evaluate.seen import GROUP_OF, score_rooms, seen_config, split_room, train_validated
+    from nlos_spotlight.evaluate.unseen import room_lights
+    from nlos_spotlight.train.loop import Trainer
+
+    out = args.out / room.name
+    data = out / "data"
+    t0 = time.perf_counter()
+    generate(room_dataset(test_cfg, room, args.people, args.transport, 5000 + i), data, progress=False)
+    render_s = time.perf_counter() - t0
+    s, = load_split(data, "train", ["normals"], samples="images")
+    test = load_scene_tensors(room, ["normals"], samples="transport")
+    fit_aims = np.load(next((data / "scenes").iterdir()) / "static.npz")["aim_points"]
+    if not np.allclose(fit_aims, np.load(room / "static.npz")["aim_points"], atol=1e-6):
+        raise SystemExit(f"{room.name}: the fitted room's candidate spots differ from the test room's")
+    split = split_room(s, period=10, max_eval=100)
+    cfg = seen_config(1, args.seed, noise=True, policy="oracle")
+    per_epoch = max(1, split.pool.num_samples // cfg.batch_size)
+    steps = max(args.min_steps, round(args.epochs * per_epoch))
+    every = max(per_epoch, steps // 25)
+    cfg = dataclasses.replace(cfg, steps=steps, eval_every=every, ckpt_every=every, log_every=every,
+                              select=args.select)
+    t1 = time.perf_counter()
+    (out / "run").mkdir(parents=True, exist_ok=True)
+    tr = Trainer(cfg, [split.pool], out / "run", val_scenes=[split.val])
+    if (out / "run" / "checkpoint.pt").exists():
+        tr.load(out / "run" / "checkpoint.pt")
+    train_validated(tr, out / "run")
+    train_s = time.perf_counter() - t1
+    (y, _, _), = tr.illuminations([tr.scenes[0]], train=False)
+    lights = {"fit": (y, "spot"),
+              "oracle": (room_lights([test], "oracle", 0)[0].spot_vector(len(test.faces)), "spot")}
+    static = torch.nonzero(test.trajectory[:, 0] < 0).flatten()
+    test = test.subset(static)
+    mean = split.pool.target.mean(0)
+    rows = []
+    for name, light in lights.items():
+        res = score_rooms(tr.net, cfg.net, tr.sensor, [test], [light], True, args.seed)
+        p = res["per_person"]
+        err = 100 * np.linalg.norm(p["pred_xy"] - p["true_xy"], axis=1)
+        g = GROUP_OF
+        rows.append(dict(room=room.name, spot=f"{name}:{int(light[0].argmax())}", people=split.pool.num_samples,
+                         posture_accuracy=round(100 * float(np.mean(p["pred_posture"] == p["true_posture"])), 2),
+                         posture3_accuracy=round(100 * float(np.mean(g[p["pred_posture"]] == g[p["true_posture"]])), 2),
+                         error_cm=round(float(err.mean()), 2),
+                         mean_answer_cm=round(100 * float((test.target - mean).norm(dim=1).mean()), 2),
+                         test_people=len(err), render_s=round(render_s), train_s=round(train_s)))
+        np.savez(out / f"predictions-{name}.npz", **{k: np.asarray(v) for k, v in p.items()})
+        print(" ".join(f"{k}={v}" for k, v in rows[-1].items()), flush=True)
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--test", type=Path, required=True, help="test dataset (unseen-test.yaml)")
+    ap.add_argument("--rooms", type=int, default=6, help="the first ROOMS test rooms")
+    ap.add_argument("--first", type=int, default=0, help="start at this test room")
+    ap.add_argument("--people", type=int, default=1500, help="synthetic people per room")
+    ap.add_argument("--transport", type=int, default=8, help="of which with full transport (the spot's choice)")
+    ap.add_argument("--epochs", type=float, default=60.0)
+    ap.add_argument("--min-steps", type=int, default=800)
+    ap.add_argument("--select", default="metrics", help="best weights by validation 'loss' or 'metrics'")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--out", type=Path, default=Path("out/unseen/room-fit"))
+    args = ap.parse_args()
+    torch.set_num_threads(args.threads)
+    from nlos_spotlight.data.tensors import finished_scene_dirs
+
+    test_cfg = json.loads((args.test / "config.json").read_text())
+    rooms = [Path(d) for d in finished_scene_dirs(args.test, "test")][args.first: args.first + args.rooms]
+    args.out.mkdir(parents=True, exist_ok=True)
+    path = args.out / f"room-fit-{args.first}-{args.first + len(rooms)}.csv"
+    rows = []
+    for i, room in enumerate(rooms, args.first):
+        rows += fit_room(args, i, room, test_cfg)
+        with path.with_suffix(".tmp").open("w", newline="") as f:
+            w = csv.DictWriter(f, COLUMNS)
+            w.writeheader()
+            w.writerows(rows)
+        path.with_suffix(".tmp").replace(path)
+    for spot in ("fit", "oracle"):
+        sel = [r for r in rows if r["spot"].startswith(spot)]
+        print(f"{spot} spot, {len(sel)} rooms: posture {np.mean([r['posture_accuracy'] for r in sel]):.1f}%, "
+              f"upright/sitting/crouching {np.mean([r['posture3_accuracy'] for r in sel]):.1f}%, "
+              f"error {np.mean([r['error_cm'] for r in sel]):.1f} cm, mean answer "
+              f"{np.mean([r['mean_answer_cm'] for r in sel]):.1f} cm")
+
+
+if __name__ == "__main__":
+    main()
