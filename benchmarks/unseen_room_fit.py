@@ -116,7 +116,14 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--out", type=Path, default=Path("out/unseen/room-fit"))
+    ap.add_argument("--compare", nargs="*", default=[], metavar="NAME=NPZ",
+                    help="predictions of networks trained across rooms on the same test set, for the summary")
+    ap.add_argument("--ceiling", type=Path, default=Path("docs/results/posture-ceiling-unseen.txt"),
+                    help="posture_separability.py --split test's output: the ideal observer per person")
+    ap.add_argument("--summary-only", action="store_true", help="only the summary of the rooms fitted so far")
     args = ap.parse_args()
+    if args.summary_only:
+        return summary(args)
     torch.set_num_threads(args.threads)
     from nlos_spotlight.data.tensors import finished_scene_dirs
 
@@ -132,13 +139,45 @@ def main() -> None:
             w.writeheader()
             w.writerows(rows)
         path.with_suffix(".tmp").replace(path)
-    for spot in ("fit", "oracle"):
-        sel = [r for r in rows if r["spot"].startswith(spot)]
-        print(f"{spot} spot, {len(sel)} rooms: posture {np.mean([r['posture_accuracy'] for r in sel]):.1f}%, "
-              f"upright/sitting/crouching {np.mean([r['posture3_accuracy'] for r in sel]):.1f}%, "
-              f"error {np.mean([r['error_cm'] for r in sel]):.1f} cm, mean answer "
-              f"{np.mean([r['mean_answer_cm'] for r in sel]):.1f} cm")
+    summary(args)
 
+
+def summary(args) -> None:
+    """Every fitted room so far (all ``room-fit-*.csv``) beside the networks trained across rooms
+    (``--compare``) and the ideal observer (``--ceiling``) on the same rooms' static people."""
+    rows = {}
+    for path in sorted(args.out.glob("room-fit-*.csv")):
+        with path.open() as f:
+            rows.update({(r["room"], r["spot"].split(":")[0]): r for r in csv.DictReader(f)})
+    rooms = sorted({room for room, _ in rows})
+    index = [int(r.split("-")[-1]) for r in rooms]
+    lines = [f"{len(rooms)} test rooms ({', '.join(rooms)}), static people, default capture (one frame):",
+             "| method | six-way | upright/sitting/crouching | error | mean answer |", "|---|---|---|---|---|"]
+    fit = [rows[r, "fit"] for r in rooms]
+    same = sum(rows[r, "fit"]["spot"].split(":")[1] == rows[r, "oracle"]["spot"].split(":")[1] for r in rooms)
+    mean = lambda k: np.mean([float(r[k]) for r in fit])
+    lines.append(f"| fitted in the room (spot from its simulated people) | {mean('posture_accuracy'):.1f}% | "
+                 f"{mean('posture3_accuracy'):.1f}% | {mean('error_cm'):.1f} cm | {mean('mean_answer_cm'):.1f} cm |")
+    for spec in args.compare:
+        name, path = spec.split("=", 1)
+        with np.load(path) as z:
+            keep = np.isin(z["room"], index) & (z["trajectory"][:, 0] < 0)
+            t, q = z["true_posture"][keep], z["pred_posture"][keep]
+            from nlos_spotlight.evaluate.seen import GROUP_OF
+
+            err = 100 * np.linalg.norm(z["pred_xy"][keep] - z["true_xy"][keep], axis=1).mean()
+            lines.append(f"| {name} | {100 * np.mean(t == q):.1f}% | {100 * np.mean(GROUP_OF[t] == GROUP_OF[q]):.1f}% | "
+                         f"{err:.1f} cm | |")
+    if args.ceiling and args.ceiling.exists():
+        import re
+
+        acc = [float(m.group(2)) for m in re.finditer(r"room (test-\d+) person \d+:.*?1 frame\(s\) \d+% / (\d+)%",
+                                                       args.ceiling.read_text()) if m.group(1) in rooms]
+        lines.append(f"| ideal observer, nuisances fitted ({len(acc)} people) | {np.mean(acc):.1f}% | | | |")
+    lines.append(f"The spot chosen from the simulated people is the test people's oracle in {same} of {len(rooms)} rooms.")
+    text = "\n".join(lines)
+    print(text)
+    (args.out / "summary.md").write_text(text + "\n")
 
 if __name__ == "__main__":
     main()
