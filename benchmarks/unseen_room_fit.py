@@ -51,6 +51,7 @@ def room_dataset(test_cfg: dict, room: Path, people: int, transport: int, seed: 
 
 def fit_room(args, i: int, room: Path, test_cfg: dict) -> list[dict]:
     from nlos_spotlight.data.generate import generate
+    from nlos_spotlight.data.store import atomic_npz
     from nlos_spotlight.data.tensors import load_scene_tensors, load_split
     from nlos_spotlight.evaluate.seen import GROUP_OF, score_rooms, seen_config, split_room, train_validated
     from nlos_spotlight.evaluate.unseen import room_lights
@@ -98,7 +99,7 @@ def fit_room(args, i: int, room: Path, test_cfg: dict) -> list[dict]:
                          error_cm=round(float(err.mean()), 2),
                          mean_answer_cm=round(100 * float((test.target - mean).norm(dim=1).mean()), 2),
                          test_people=len(err), render_s=round(render_s), train_s=round(train_s)))
-        np.savez(out / f"predictions-{name}.npz", **{k: np.asarray(v) for k, v in p.items()})
+        atomic_npz(out / f"predictions-{name}.npz", **{k: np.asarray(v) for k, v in p.items()})
         print(" ".join(f"{k}={v}" for k, v in rows[-1].items()), flush=True)
     return rows
 

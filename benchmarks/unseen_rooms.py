@@ -9,6 +9,9 @@ weights on the dataset's validation rooms, and scores it on the rooms of a test 
   ``evaluate.seen.seen_config``);
 * ``geometry``: the same network with the room's per-pixel geometry and the spot's lit fraction
   (``data.geometry``) as ten more input channels.
+* ``chandran``, ``tancik``, ``dlnlos``: the published baselines' networks (docs/baselines.md), Chandran's
+  under every stored spot like the two above, Tancik's under the flash and DL-NLOS's under the
+  room's ambient light only (and scored under those).
 
 Both train on the same people under the same budget, every room lit by a stored spot drawn afresh
 each step (``spot_augment``: each person gives the network ~10 illuminations, and a network can be
@@ -22,7 +25,7 @@ posture3_accuracy,error_cm,mean_answer_cm,steps,seconds``), ``--out``/spot-snr.c
 the learning curve over rooms. Resumable: every run keeps its weights and scores in ``--runs``.
 
     python benchmarks/unseen_rooms.py --train out/unseen/train --test out/unseen/test \\
-        [--rooms 25,50,100,200] [--nets image,geometry] [--policies oracle,adaptive,center,random] [--ien] \
+        [--rooms 25,50,100,200] [--nets image,geometry,chandran,tancik,dlnlos] [--policies oracle,adaptive,center,random] [--ien] \
         [--epochs 40 | --steps 2400]
 """
 
