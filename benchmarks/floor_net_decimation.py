@@ -12,8 +12,9 @@ every test person of the room under that spot with the same noise draws as
         --runs out/backprojection-net/t2-s0 out/backprojection-net/t2-s1 out/backprojection-net/t2-s2 \\
         --out docs/results/unseen-paper/fig7-decimation.csv
 
-Writes the CSV (seed, ratio, vertices, snap_m, error_cm, posture_accuracy, people) and a plot beside
-it. The IEN's choices per room are kept in ``--cache`` so a rerun only scores.
+Writes the CSV (seed, ratio, vertices, snap_m, error_cm, posture_accuracy, people) and Figure 7
+beside it (``--plot-only``: the figure again from the CSV). The IEN's choices per room are kept in
+``--cache`` so a rerun only scores.
 """
 
 from __future__ import annotations
@@ -55,7 +56,11 @@ def main() -> None:
     ap.add_argument("--runs", type=Path, nargs="+", required=True, help="FloorNet runs (floor_net.pt, run.json)")
     ap.add_argument("--cache", type=Path, default=Path("out/unseen/decimation-choices"))
     ap.add_argument("--out", type=Path, default=Path("docs/results/unseen-paper/fig7-decimation.csv"))
+    ap.add_argument("--plot-only", action="store_true", help="only draw the figure from --out's CSV")
     args = ap.parse_args()
+    if args.plot_only:
+        with args.out.open() as f:
+            return plot(list(csv.DictReader(f)), args.out.with_suffix(".png"))
     torch.set_num_threads(1)
     from nlos_spotlight.data.tensors import finished_scene_dirs
     from nlos_spotlight.models.floor_net import FloorNet, FloorNetConfig
@@ -102,24 +107,16 @@ def main() -> None:
 
 
 def plot(rows: list[dict], path: Path) -> None:
-    import matplotlib
+    """Figure 7 as ``nlos evaluate`` draws it (``evaluate.figures.decimation_figure``): accuracy and
+    error over the decimation ratios, mean and spread over the seeds."""
+    from nlos_spotlight.evaluate.figures import decimation_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    ratios = sorted({r["ratio"] for r in rows})
-    fig, ax = plt.subplots(1, 2, figsize=(8, 3.2))
-    for k, (key, lab) in enumerate((("error_cm", "localization error (cm)"), ("snap_m", "snap to a stored spot (m)"))):
-        m = [np.mean([r[key] for r in rows if r["ratio"] == x]) for x in ratios]
-        s = [np.std([r[key] for r in rows if r["ratio"] == x]) for x in ratios]
-        ax[k].errorbar(ratios, m, s, marker="o")
-        ax[k].set_xlabel("decimation ratio (vertices kept)")
-        ax[k].set_ylabel(lab)
-    fig.suptitle("Ours on 40 unseen rooms, the IEN reading decimated scans", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
+    ratios = sorted({float(r["ratio"]) for r in rows})
+    seeds = sorted({int(r["seed"]) for r in rows})
+    at = {(int(r["seed"]), float(r["ratio"])): r for r in rows}
+    acc, err = (np.array([[float(at[s, x][k]) for x in ratios] for s in seeds])
+                for k in ("posture_accuracy", "error_cm"))
+    decimation_figure(ratios, acc, err, path)
 
 if __name__ == "__main__":
     main()

@@ -25,10 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from nlos_spotlight.evaluate.metrics import COLUMNS, class_scores
 from nlos_spotlight.evaluate.tracking import smooth_trajectory
-from nlos_spotlight.world.body import POSTURES
-
-COLUMNS = (*POSTURES, "all")
 
 
 @dataclass(frozen=True)
@@ -78,16 +76,11 @@ def load(path: Path) -> dict | None:
         return {k: z[k] for k in z.files}
 
 
-def scores(p: dict, static: bool = True) -> dict:
-    """Per posture and overall: accuracy (%) and mean error (cm) over the static (or all) people."""
-    keep = p["trajectory"][:, 0] < 0 if static else np.ones(len(p["true_posture"]), bool)
-    true, pred = p["true_posture"][keep], p["pred_posture"][keep]
-    err = 100 * np.linalg.norm(p["pred_xy"][keep] - p["true_xy"][keep], axis=1)
-    out = {}
-    for c, name in enumerate(COLUMNS):
-        sel = true == c if name != "all" else np.ones(len(true), bool)
-        out[name] = (float(100 * np.mean(pred[sel] == true[sel])), float(err[sel].mean()), int(sel.sum()))
-    return out
+def scores(p: dict) -> dict:
+    """Per posture and overall over the static people: (accuracy %, mean error cm, people)."""
+    keep = p["trajectory"][:, 0] < 0
+    r = class_scores(p["true_posture"][keep], p["pred_posture"][keep], p["true_xy"][keep], p["pred_xy"][keep])
+    return {c: (r["accuracy"][c], r["error_cm"][c], r["people"][c]) for c in COLUMNS}
 
 
 def seeds_of(args, net: str, policy: str) -> list[dict]:
@@ -123,7 +116,8 @@ def tracking(preds: list[dict]) -> dict:
             e_raw.append(np.linalg.norm(xy - p["true_xy"][sel], axis=1))
             e_s.append(np.linalg.norm(sm - p["true_xy"][sel], axis=1))
             if len(tracks) < 4:
-                tracks.append((p["true_xy"][sel], xy, sm, int(room)))
+                tracks.append({"true": p["true_xy"][sel], "raw": xy, "smooth": sm,
+                               "title": f"ours, unseen test room {int(room)} (seed 0)"})
         raw.append(100 * float(np.concatenate(e_raw).mean()))
         smooth.append(100 * float(np.concatenate(e_s).mean()))
     return {"raw_cm": raw, "smoothed_cm": smooth, "tracks": tracks}
@@ -215,18 +209,9 @@ def figures(out: Path, tr: dict, grid: dict, chance: float) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(tr["tracks"]), figsize=(3 * len(tr["tracks"]), 3))
-    for ax, (true, raw, sm, room) in zip(np.atleast_1d(axes), tr["tracks"]):
-        ax.plot(true[:, 0], true[:, 1], "k-", label="true")
-        ax.plot(raw[:, 0], raw[:, 1], ".", color="0.6", label="raw")
-        ax.plot(sm[:, 0], sm[:, 1], "r-", label="smoothed")
-        ax.set_title(f"test room {room}", fontsize=9)
-        ax.set_aspect("equal")
-    np.atleast_1d(axes)[0].legend(fontsize=7)
-    fig.suptitle("Ours (IEN + FloorNet) on unseen rooms' walks, region frame (m)", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(out / "fig5_tracking.png", dpi=110)
-    plt.close(fig)
+    from nlos_spotlight.evaluate.figures import tracking_figure
+
+    tracking_figure(tr["tracks"], out / "fig5_tracking.png")  # the figure nlos evaluate draws
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.5))
     width = 0.8 / len(GRID_NETS)
     for i, net in enumerate(GRID_NETS):

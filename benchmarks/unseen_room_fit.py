@@ -53,7 +53,7 @@ def fit_room(args, i: int, room: Path, test_cfg: dict) -> list[dict]:
     from nlos_spotlight.data.generate import generate
     from nlos_spotlight.data.store import atomic_npz
     from nlos_spotlight.data.tensors import load_scene_tensors, load_split
-    from nlos_spotlight.evaluate.seen import GROUP_OF, score_rooms, seen_config, split_room, train_validated
+    from nlos_spotlight.evaluate.seen import score_rooms, seen_config, split_room, train_validated
     from nlos_spotlight.evaluate.unseen import room_lights
     from nlos_spotlight.train.loop import Trainer
 
@@ -91,14 +91,11 @@ def fit_room(args, i: int, room: Path, test_cfg: dict) -> list[dict]:
     for name, light in lights.items():
         res = score_rooms(tr.net, cfg.net, tr.sensor, [test], [light], True, args.seed)
         p = res["per_person"]
-        err = 100 * np.linalg.norm(p["pred_xy"] - p["true_xy"], axis=1)
-        g = GROUP_OF
         rows.append(dict(room=room.name, spot=f"{name}:{int(light[0].argmax())}", people=split.pool.num_samples,
-                         posture_accuracy=round(100 * float(np.mean(p["pred_posture"] == p["true_posture"])), 2),
-                         posture3_accuracy=round(100 * float(np.mean(g[p["pred_posture"]] == g[p["true_posture"]])), 2),
-                         error_cm=round(float(err.mean()), 2),
+                         posture_accuracy=round(res["posture_accuracy"], 2),
+                         posture3_accuracy=round(res["posture3_accuracy"], 2), error_cm=round(res["error_cm"], 2),
                          mean_answer_cm=round(100 * float((test.target - mean).norm(dim=1).mean()), 2),
-                         test_people=len(err), render_s=round(render_s), train_s=round(train_s)))
+                         test_people=test.num_samples, render_s=round(render_s), train_s=round(train_s)))
         atomic_npz(out / f"predictions-{name}.npz", **{k: np.asarray(v) for k, v in p.items()})
         print(" ".join(f"{k}={v}" for k, v in rows[-1].items()), flush=True)
     return rows

@@ -20,17 +20,23 @@ def static_mask(p: Predictions) -> np.ndarray:
 
 
 def per_class(p: Predictions) -> dict[str, dict[str, float]]:
-    """{'accuracy': {column: %}, 'error_cm': {column: mean cm}} over the static samples."""
+    """:func:`class_scores` over the static samples."""
     a = p.arrays()
     keep = static_mask(p)
-    true, pred = a["true_posture"][keep], a["probs"][keep].argmax(1)
-    err = 100 * np.linalg.norm(a["pred_xy"][keep] - a["true_xy"][keep], axis=1)
-    acc, loc = {}, {}
+    return class_scores(a["true_posture"][keep], a["probs"][keep].argmax(1), a["true_xy"][keep], a["pred_xy"][keep])
+
+
+def class_scores(true: np.ndarray, pred: np.ndarray, true_xy: np.ndarray, pred_xy: np.ndarray) -> dict:
+    """{'accuracy': {column: %}, 'error_cm': {column: mean cm}, 'people': {column: count}} of postures
+    (N,) and positions (N, 2) m, per true posture and over all."""
+    err = 100 * np.linalg.norm(pred_xy - true_xy, axis=1)
+    acc, loc, n = {}, {}, {}
     for c, name in enumerate(COLUMNS):
         sel = true == c if name != "all" else np.ones(len(true), bool)
         acc[name] = float(100 * np.mean(pred[sel] == true[sel])) if sel.any() else float("nan")
         loc[name] = float(err[sel].mean()) if sel.any() else float("nan")
-    return {"accuracy": acc, "error_cm": loc}
+        n[name] = int(sel.sum())
+    return {"accuracy": acc, "error_cm": loc, "people": n}
 
 
 def aggregate(results: list[dict[str, dict[str, float]]]) -> dict[str, dict[str, tuple[float, float]]]:
