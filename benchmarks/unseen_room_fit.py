@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-COLUMNS = ["room", "spot", "people", "posture_accuracy", "posture3_accuracy", "error_cm", "mean_answer_cm",
+COLUMNS = ["room", "variant", "spot", "people", "posture_accuracy", "posture3_accuracy", "error_cm", "mean_answer_cm",
            "test_people", "render_s", "train_s"]
 
 
@@ -49,13 +49,18 @@ def room_dataset(test_cfg: dict, room: Path, people: int, transport: int, seed: 
                          **{k: test_cfg[k] for k in keep if k in test_cfg})
 
 
+def parse_variant(spec: str) -> tuple[int, bool]:
+    """'16' -> (16 frames a still capture, no albedo augmentation); '16+albedo' -> (16, True)."""
+    frames, _, extra = spec.partition("+")
+    if not frames.isdigit() or int(frames) < 1 or extra not in ("", "albedo"):
+        raise SystemExit(f"--variants: expected FRAMES or FRAMES+albedo (e.g. 16+albedo), got {spec!r}")
+    return int(frames), extra == "albedo"
+
+
 def fit_room(args, i: int, room: Path, test_cfg: dict) -> list[dict]:
     from nlos_spotlight.data.generate import generate
-    from nlos_spotlight.data.store import atomic_npz
     from nlos_spotlight.data.tensors import load_scene_tensors, load_split
-    from nlos_spotlight.evaluate.seen import score_rooms, seen_config, split_room, train_validated
-    from nlos_spotlight.evaluate.unseen import room_lights
-    from nlos_spotlight.train.loop import Trainer
+    from nlos_spotlight.evaluate.seen import split_room
 
     out = args.out / room.name
     data = out / "data"
@@ -68,35 +73,53 @@ def fit_room(args, i: int, room: Path, test_cfg: dict) -> list[dict]:
     if not np.allclose(fit_aims, np.load(room / "static.npz")["aim_points"], atol=1e-6):
         raise SystemExit(f"{room.name}: the fitted room's candidate spots differ from the test room's")
     split = split_room(s, period=10, max_eval=100)
+    static = torch.nonzero(test.trajectory[:, 0] < 0).flatten()
+    test = test.subset(static)
+    rows = []
+    for spec in args.variants:
+        rows += fit_variant(args, out, spec, split, test, render_s)
+    return rows
+
+
+def fit_variant(args, out: Path, spec: str, split, test, render_s: float) -> list[dict]:
+    """One network for the room's simulated people with the capture and augmentation of ``spec``,
+    scored on the room's test people under the fitted spot and the test people's oracle spot."""
+    from nlos_spotlight.data.store import atomic_npz
+    from nlos_spotlight.evaluate.seen import score_rooms, seen_config, train_validated
+    from nlos_spotlight.evaluate.unseen import room_lights
+    from nlos_spotlight.train.loop import Trainer
+
+    frames, albedo = parse_variant(spec)
     cfg = seen_config(1, args.seed, noise=True, policy="oracle")
+    cfg = dataclasses.replace(cfg, sensor={"burst_frames": frames} if frames > 1 else {}, albedo_augment=albedo)
+    run = out / ("run" if spec == "1" else f"run-{spec.replace('+', '-')}")  # '1': the first fits' folder
     per_epoch = max(1, split.pool.num_samples // cfg.batch_size)
     steps = max(args.min_steps, round(args.epochs * per_epoch))
     every = max(per_epoch, steps // 25)
     cfg = dataclasses.replace(cfg, steps=steps, eval_every=every, ckpt_every=every, log_every=every,
                               select=args.select)
     t1 = time.perf_counter()
-    (out / "run").mkdir(parents=True, exist_ok=True)
-    tr = Trainer(cfg, [split.pool], out / "run", val_scenes=[split.val])
-    if (out / "run" / "checkpoint.pt").exists():
-        tr.load(out / "run" / "checkpoint.pt")
-    train_validated(tr, out / "run")
+    run.mkdir(parents=True, exist_ok=True)
+    (run / "config.json").write_text(json.dumps({"train": cfg.to_dict(), "variant": spec}, indent=1))
+    tr = Trainer(cfg, [split.pool], run, val_scenes=[split.val])
+    if (run / "checkpoint.pt").exists():
+        tr.load(run / "checkpoint.pt")
+    train_validated(tr, run)
     train_s = time.perf_counter() - t1
     (y, _, _), = tr.illuminations([tr.scenes[0]], train=False)
     lights = {"fit": (y, "spot"),
               "oracle": (room_lights([test], "oracle", 0)[0].spot_vector(len(test.faces)), "spot")}
-    static = torch.nonzero(test.trajectory[:, 0] < 0).flatten()
-    test = test.subset(static)
     mean = split.pool.target.mean(0)
     rows = []
     for name, light in lights.items():
         res = score_rooms(tr.net, cfg.net, tr.sensor, [test], [light], True, args.seed)
         p = res["per_person"]
-        rows.append(dict(room=room.name, spot=f"{name}:{int(light[0].argmax())}", people=split.pool.num_samples,
+        rows.append(dict(room=Path(test.scene_dir).name, variant=spec, spot=f"{name}:{int(light[0].argmax())}", people=split.pool.num_samples,
                          posture_accuracy=round(res["posture_accuracy"], 2),
                          posture3_accuracy=round(res["posture3_accuracy"], 2), error_cm=round(res["error_cm"], 2),
                          mean_answer_cm=round(100 * float((test.target - mean).norm(dim=1).mean()), 2),
                          test_people=test.num_samples, render_s=round(render_s), train_s=round(train_s)))
-        atomic_npz(out / f"predictions-{name}.npz", **{k: np.asarray(v) for k, v in p.items()})
+        atomic_npz(run / f"predictions-{name}.npz", **{k: np.asarray(v) for k, v in p.items()})
         print(" ".join(f"{k}={v}" for k, v in rows[-1].items()), flush=True)
     return rows
 
@@ -104,8 +127,13 @@ def fit_room(args, i: int, room: Path, test_cfg: dict) -> list[dict]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--test", type=Path, required=True, help="test dataset (unseen-test.yaml)")
-    ap.add_argument("--rooms", type=int, default=6, help="the first ROOMS test rooms")
+    ap.add_argument("--rooms", type=int, default=6, help="ROOMS test rooms from --first (by index, each finished)")
     ap.add_argument("--first", type=int, default=0, help="start at this test room")
+    ap.add_argument("--variants", nargs="+", default=["1"], metavar="FRAMES[+albedo]",
+                    help="one network per variant on the same people: frames a still capture averages "
+                         "(train and test), '+albedo' for albedo augmentation (e.g. 1 16 16+albedo)")
+    ap.add_argument("--also", nargs="*", type=Path, default=[], metavar="CSV",
+                    help="earlier fits' room-fit CSVs to summarize beside these (e.g. the committed 1,200-people fits)")
     ap.add_argument("--people", type=int, default=1500, help="synthetic people per room")
     ap.add_argument("--transport", type=int, default=8, help="of which with full transport (the spot's choice)")
     ap.add_argument("--epochs", type=float, default=60.0)
@@ -123,10 +151,15 @@ def main() -> None:
     if args.summary_only:
         return summary(args)
     torch.set_num_threads(args.threads)
-    from nlos_spotlight.data.tensors import finished_scene_dirs
+    from nlos_spotlight.data.store import scene_id
 
+    for spec in args.variants:
+        parse_variant(spec)
     test_cfg = json.loads((args.test / "config.json").read_text())
-    rooms = [Path(d) for d in finished_scene_dirs(args.test, "test")][args.first: args.first + args.rooms]
+    rooms = [args.test / "scenes" / scene_id("test", i) for i in range(args.first, args.first + args.rooms)]
+    for room in rooms:  # by index, so that workers on disjoint rooms can start before all are generated
+        if not (room / "done.json").exists():
+            raise SystemExit(f"{room}: not generated (nlos generate {args.test} ... --shard {room.name[5:].lstrip('0') or 0}/N)")
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / f"room-fit-{args.first}-{args.first + len(rooms)}.csv"
     rows = []
@@ -141,21 +174,29 @@ def main() -> None:
 
 
 def summary(args) -> None:
-    """Every fitted room so far (all ``room-fit-*.csv``) beside the networks trained across rooms
+    """Every fitted room so far (all ``room-fit-*.csv`` and ``--also``), one line per (training
+    people, variant) over the rooms it has, beside the networks trained across rooms
     (``--compare``) and the ideal observer (``--ceiling``) on the same rooms' static people."""
-    rows = {}
-    for path in sorted(args.out.glob("room-fit-*.csv")):
+    fits = {}
+    for path in sorted(args.out.glob("room-fit-*.csv")) + list(args.also):
         with path.open() as f:
-            rows.update({(r["room"], r["spot"].split(":")[0]): r for r in csv.DictReader(f)})
-    rooms = sorted({room for room, _ in rows})
+            for r in csv.DictReader(f):
+                r.setdefault("variant", "1")  # fits written before --variants: one frame, no augmentation
+                fits.setdefault((int(r["people"]), r["variant"]), {})[r["room"], r["spot"].split(":")[0]] = r
+    rooms = sorted({room for rows in fits.values() for room, _ in rows})
     index = [int(r.split("-")[-1]) for r in rooms]
-    lines = [f"{len(rooms)} test rooms ({', '.join(rooms)}), static people, default capture (one frame):",
-             "| method | six-way | upright/sitting/crouching | error | mean answer |", "|---|---|---|---|---|"]
-    fit = [rows[r, "fit"] for r in rooms]
-    same = sum(rows[r, "fit"]["spot"].split(":")[1] == rows[r, "oracle"]["spot"].split(":")[1] for r in rooms)
-    mean = lambda k: np.mean([float(r[k]) for r in fit])
-    lines.append(f"| fitted in the room (spot from its simulated people) | {mean('posture_accuracy'):.1f}% | "
-                 f"{mean('posture3_accuracy'):.1f}% | {mean('error_cm'):.1f} cm | {mean('mean_answer_cm'):.1f} cm |")
+    lines = [f"{len(rooms)} test rooms ({', '.join(rooms)}), static people; one frame unless stated:",
+             "| method | rooms | six-way | upright/sitting/crouching | error | mean answer |",
+             "|---|---|---|---|---|---|"]
+    for (people, variant), rows in sorted(fits.items()):
+        done = sorted({room for room, kind in rows if kind == "fit"})
+        fit = [rows[r, "fit"] for r in done]
+        mean = lambda k: np.mean([float(r[k]) for r in fit])
+        frames, albedo = parse_variant(variant)
+        what = f"{frames}-frame burst" if frames > 1 else "one frame"
+        lines.append(f"| fitted in the room: {people} training people, {what}{', albedo augmentation' * albedo} | "
+                     f"{len(done)} | {mean('posture_accuracy'):.1f}% | {mean('posture3_accuracy'):.1f}% | "
+                     f"{mean('error_cm'):.1f} cm | {mean('mean_answer_cm'):.1f} cm |")
     for spec in args.compare:
         name, path = spec.split("=", 1)
         with np.load(path) as z:
@@ -164,18 +205,27 @@ def summary(args) -> None:
             from nlos_spotlight.evaluate.seen import GROUP_OF
 
             err = 100 * np.linalg.norm(z["pred_xy"][keep] - z["true_xy"][keep], axis=1).mean()
-            lines.append(f"| {name} | {100 * np.mean(t == q):.1f}% | {100 * np.mean(GROUP_OF[t] == GROUP_OF[q]):.1f}% | "
-                         f"{err:.1f} cm | |")
+            lines.append(f"| {name} | {len(rooms)} | {100 * np.mean(t == q):.1f}% | "
+                         f"{100 * np.mean(GROUP_OF[t] == GROUP_OF[q]):.1f}% | {err:.1f} cm | |")
     if args.ceiling and args.ceiling.exists():
         import re
 
-        acc = [float(m.group(2)) for m in re.finditer(r"room (test-\d+) person \d+:.*?1 frame\(s\) \d+% / (\d+)%",
-                                                       args.ceiling.read_text()) if m.group(1) in rooms]
-        lines.append(f"| ideal observer, nuisances fitted ({len(acc)} people) | {np.mean(acc):.1f}% | | | |")
-    lines.append(f"The spot chosen from the simulated people is the test people's oracle in {same} of {len(rooms)} rooms.")
+        text = args.ceiling.read_text()
+        for frames in (1, 16):
+            acc = [float(m.group(2)) for m in re.finditer(
+                rf"room (test-\d+) person \d+:.*? {frames} frame\(s\) \d+% / (\d+)%", text) if m.group(1) in rooms]
+            lines.append(f"| ideal observer, nuisances fitted, {frames} frame(s) ({len(acc)} people) | {len(rooms)} | "
+                         f"{np.mean(acc):.1f}% | | | |")
+    for (people, variant), rows in sorted(fits.items()):
+        done = sorted({room for room, kind in rows if kind == "fit"})
+        same = sum(rows[r, "fit"]["spot"].split(":")[1] == rows[r, "oracle"]["spot"].split(":")[1] for r in done)
+        lines.append(f"{people} people, variant {variant}: the spot chosen from the simulated people is the test "
+                     f"people's oracle in {same} of {len(done)} rooms.")
     text = "\n".join(lines)
     print(text)
+    args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "summary.md").write_text(text + "\n")
+
 
 if __name__ == "__main__":
     main()

@@ -76,6 +76,9 @@ class SceneTensors:
     nuisance: torch.Tensor | None = None
     """(N, 3) cos and sin of the body's facing in the region frame and its height (m): what else
     changes the person's light (auxiliary targets); None where the dataset does not store them."""
+    albedo: torch.Tensor | None = None
+    """(N, 3) the body's albedo each sample was rendered with (the person's light is linear in it:
+    ``train.imaging.form_images``' albedo augmentation); None for scenes built in memory."""
 
     def to(self, device) -> "SceneTensors":
         move = lambda v: v.to(device) if isinstance(v, torch.Tensor) else v
@@ -91,7 +94,8 @@ class SceneTensors:
         return SceneTensors(**{k: take(k, getattr(self, k)) for k in self.__dataclass_fields__})
 
 
-PER_SAMPLE = ("u", "v", "nlos_ambient", "target", "posture", "trajectory", "flash_nlos", "transport", "nuisance")
+PER_SAMPLE = ("u", "v", "nlos_ambient", "target", "posture", "trajectory", "flash_nlos", "transport", "nuisance",
+              "albedo")
 """SceneTensors fields indexed by sample (the rest describe the room)."""
 
 
@@ -256,7 +260,7 @@ def _read_sample(path: Path, image: bool) -> dict:
 
     with np.load(path) as z:
         out = {k: z[k] for k in _LABELS}
-        out.update({k: z[k] for k in _NUISANCES if k in z.files})
+        out.update({k: z[k] for k in _NUISANCES + ("albedo",) if k in z.files})
         for k in ("nlos_ambient", "flash_nlos") + (("nlos_spots",) if image else ()):
             if k in z.files:
                 out[k] = f16_decode(z, k)
@@ -339,7 +343,9 @@ def load_scene_tensors(scene_dir: Path, features: list[str], samples: str = "all
         flash_nlos=f32(np.stack([z["flash_nlos"] for z in zs])) if has_flash else None,
         scene_dir=str(scene_dir), stored=torch.from_numpy(stored),
         transport=torch.as_tensor([True] * len(full) + [False] * len(images), dtype=torch.bool),
-        nuisance=nuisances(zs, fwd), face_prior=face_log_prior(prior) if prior is not None else None)
+        nuisance=nuisances(zs, fwd),
+        albedo=f32(np.stack([z["albedo"] for z in zs])) if zs and all("albedo" in z for z in zs) else None,
+        face_prior=face_log_prior(prior) if prior is not None else None)
 
 
 def nuisances(zs: list[dict], fwd_xy: np.ndarray) -> torch.Tensor | None:

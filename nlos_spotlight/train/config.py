@@ -71,6 +71,9 @@ class TrainConfig:
     spot_augment: bool = False
     """Training only: each room lit by one of its stored, landed spots drawn afresh every step (for a
     network that reads the lit channel, ``net.geometry``); validation and tests use the policy's spot."""
+    albedo_augment: bool = False
+    """Training only: every drawn person is dressed afresh in a clothing albedo from the dataset's own
+    distribution (``world.body.clothing_albedo``), exact because the person's light is linear in it."""
     ien_features: list[str] = field(default_factory=lambda: ["normals"])
     """Extra IEN vertex features besides coordinates: 'normals'."""
     ien: IENConfig = field(default_factory=IENConfig)

@@ -19,25 +19,41 @@ from ..data.tensors import SceneTensors
 
 
 def form_images(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor | None,
-                mode: str = "spot") -> tuple[torch.Tensor, torch.Tensor]:
+                mode: str = "spot", albedo: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
     """Noise-free images (B, H, W, 3) of samples ``idx`` and the person-free image (H, W, 3).
 
     ``mode`` 'spot': projector on spot vector y (T,); 'flash': the stored flash illumination;
     'ambient': projector off (y unused). Image samples hold only the room's stored spots: a y with
     weight elsewhere, or with a gradient (which needs every candidate's image), raises NlosError.
+    ``albedo`` (B, 3): the people dressed in these albedos instead (:func:`albedo_factors`).
     """
     if mode == "spot":
         _check_stored(s, idx, y)
+    lit, amb = albedo_factors(s, idx, albedo) if albedo is not None else (1.0, 1.0)
+    person_ambient = amb * s.nlos_ambient[idx]
     if mode == "ambient":
-        return s.ambient + s.nlos_ambient[idx], s.ambient
+        return s.ambient + person_ambient, s.ambient
     if mode == "flash":
         if s.flash_direct is None or s.flash_nlos is None:
             raise NlosError(f"{s.scene_dir or 'scene'}: the dataset stores no flash images (regenerate it)")
         static = s.flash_direct + s.ambient
-        return static + s.flash_nlos[idx] + s.nlos_ambient[idx], static
+        return static + lit * s.flash_nlos[idx] + person_ambient, static
     static = torch.einsum("t,thwc->hwc", y, s.direct) + s.ambient
     nlos = torch.einsum("t,btr,brhwc->bhwc", y, s.u[idx], s.v[idx])
-    return static + nlos + s.nlos_ambient[idx], static
+    return static + lit * nlos + person_ambient, static
+
+
+def albedo_factors(s: SceneTensors, idx: torch.Tensor, albedo: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """(B, 1, 1, 3) factors that turn samples ``idx``' person light into that of the same body with
+    ``albedo`` (B, 3): the projector's (``nlos``, ``flash_nlos``) scales as albedo, one diffuse
+    bounce on the body, and ``nlos_ambient`` as (albedo - 1), the body's own light minus the
+    background it hides (DESIGN section 5). Exact: the renderer has no light bouncing twice on the
+    body (``tests/train/test_albedo_augment.py`` checks it against renders)."""
+    if s.albedo is None:
+        raise NlosError(f"{s.scene_dir or 'scene'}: the samples' albedos are not stored (regenerate the dataset)")
+    a0 = s.albedo[idx]
+    shape = (len(idx), 1, 1, 3)
+    return (albedo / a0).reshape(shape), ((1 - albedo) / (1 - a0)).reshape(shape)
 
 
 def _check_stored(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor) -> None:
@@ -57,11 +73,12 @@ def _check_stored(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor) -> None:
 
 
 def capture(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor | None, mode: str, sensor: SensorConfig,
-            generator: torch.Generator | None, noise: bool, net_cfg) -> Photographs:
+            generator: torch.Generator | None, noise: bool, net_cfg, albedo: torch.Tensor | None = None) -> Photographs:
     """What the network ``net_cfg`` (``NLOSNetConfig``) reads for samples ``idx`` of room ``s`` under
     the illumination (y, mode): photographs (``form_images`` + ``photographs``) and, for a
-    geometry-aware network, the room's geometry channels under that light."""
-    images, person_free = form_images(s, idx, y, mode)
+    geometry-aware network, the room's geometry channels under that light. ``albedo`` (B, 3):
+    the people dressed in these albedos (``form_images``)."""
+    images, person_free = form_images(s, idx, y, mode, albedo)
     ph = photographs(images, person_free, sensor, generator, noise, net_cfg.background_subtract)
     if getattr(net_cfg, "geometry", False):
         from ..data.geometry import geometry_input

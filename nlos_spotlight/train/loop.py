@@ -30,6 +30,7 @@ from ..errors import NlosError
 from ..models.ien import IEN
 from ..models.registry import build_network
 from ..render.sensor import SensorConfig
+from ..world.body import clothing_albedo
 from .config import TrainConfig
 from .imaging import capture, capture_sensor
 from ..data.tensors import SceneTensors, load_split, room_samples
@@ -242,7 +243,9 @@ class Trainer:
         ills = self.illuminations(scenes, train)
         photos = []
         for (s, idx), (y, mode, _) in zip(parts, ills):
-            photos.append(capture(s, idx, y, mode, self.sensor, self.gen, self.cfg.sensor_noise, self.cfg.net))
+            albedo = clothing_albedo(len(idx), self.gen, self.device) if train and self.cfg.albedo_augment else None
+            photos.append(capture(s, idx, y, mode, self.sensor, self.gen, self.cfg.sensor_noise, self.cfg.net,
+                                  albedo))
         cat = lambda name: torch.cat([getattr(p, name) for p in photos]) if getattr(photos[0], name) is not None \
             else None
         aux_loss = torch.zeros((), device=self.device)

@@ -194,12 +194,31 @@ def sample_body_params(rng: np.random.Generator, posture: str | None = None) -> 
     )
 
 
+CLOTHING_BRIGHTNESS = (0.08, 0.65)
+"""Range of a person's clothing brightness (uniform), shared by every channel."""
+CLOTHING_TINT_SIGMA = 0.25
+"""Standard deviation of the log per-channel tint."""
+CLOTHING_ALBEDO_RANGE = (0.05, 0.8)
+"""Every channel is clipped to this range."""
+
+
 def _clothing_albedo(rng: np.random.Generator) -> np.ndarray:
     """Fabric-like RGB: one brightness for all channels times a mild per-channel tint, so the
     channels are strongly correlated (real clothing is rarely a saturated primary)."""
-    brightness = rng.uniform(0.08, 0.65)
-    tint = np.exp(rng.normal(0.0, 0.25, size=3))
-    return np.clip(brightness * tint / tint.mean(), 0.05, 0.8)
+    brightness = rng.uniform(*CLOTHING_BRIGHTNESS)
+    tint = np.exp(rng.normal(0.0, CLOTHING_TINT_SIGMA, size=3))
+    return np.clip(brightness * tint / tint.mean(), *CLOTHING_ALBEDO_RANGE)
+
+
+def clothing_albedo(n: int, generator: "torch.Generator | None" = None, device="cpu") -> "torch.Tensor":
+    """(n, 3) clothing albedos drawn as :func:`_clothing_albedo` draws one, in torch (training-time
+    albedo augmentation draws from the dataset's own distribution with the run's generator)."""
+    import torch
+
+    lo, hi = CLOTHING_BRIGHTNESS
+    brightness = lo + (hi - lo) * torch.rand(n, 1, generator=generator, device=device)
+    tint = torch.exp(CLOTHING_TINT_SIGMA * torch.randn(n, 3, generator=generator, device=device))
+    return (brightness * tint / tint.mean(1, keepdim=True)).clamp(*CLOTHING_ALBEDO_RANGE)
 
 
 def build_bucket(params: BodyParams) -> tuple[int, ...]:

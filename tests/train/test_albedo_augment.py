@@ -1,0 +1,71 @@
+"""Albedo augmentation: the person's light re-dressed in another albedo, against renders."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from conftest import glossy_corner_pair
+from nlos_spotlight.render.person import Person
+from nlos_spotlight.train.imaging import albedo_factors, form_images
+from nlos_spotlight.world.body import _clothing_albedo, clothing_albedo
+
+
+def test_person_light_scales_with_albedo_as_rendered():
+    """Rendering the same body in two albedos gives what ``albedo_factors`` predicts from one."""
+    _, r, person = glossy_corner_pair(300, "float64", pair_loops=True)
+    mesh = r.scene.human.mesh
+    a0, a1 = np.array([0.6, 0.3, 0.15]), np.array([0.1, 0.45, 0.7])
+    imgs = []
+    for a in (a0, a1):
+        p = Person.from_mesh(mesh, a, 300, "faces")
+        with torch.no_grad():
+            imgs.append(r.transport_images(p, [0.05, -0.03], nlos_ambient=True))
+    lit_a0, lit_a1 = imgs[0][:-1], imgs[1][:-1]
+    amb_a0, amb_a1 = imgs[0][-1], imgs[1][-1]
+    assert float(lit_a0.abs().max()) > 0 and float(amb_a0.abs().max()) > 0
+
+    class Room:  # the one field albedo_factors reads
+        albedo = torch.as_tensor(a0)[None]
+        scene_dir = ""
+
+    lit, amb = albedo_factors(Room, torch.tensor([0]), torch.as_tensor(a1)[None])
+    assert torch.allclose(lit[0] * lit_a0, lit_a1, rtol=1e-9, atol=1e-12 * float(lit_a1.abs().max()))
+    assert torch.allclose(amb[0, 0] * amb_a0, amb_a1, rtol=1e-9, atol=1e-12 * float(amb_a1.abs().max()))
+
+
+def test_form_images_in_own_albedo_is_unchanged(micro_scene):
+    _, s = micro_scene
+    idx = torch.arange(s.num_samples)
+    spot = int(torch.nonzero(s.landed & s.stored).flatten()[0])
+    y = torch.nn.functional.one_hot(torch.tensor(spot), len(s.landed)).float()
+    for mode in ("spot", "ambient", "flash"):
+        want, static = form_images(s, idx, y, mode)
+        got, static2 = form_images(s, idx, y, mode, s.albedo[idx])
+        assert torch.equal(static, static2)
+        assert torch.allclose(got, want, rtol=1e-5, atol=1e-6 * float(want.abs().max()))
+    bright = form_images(s, idx, y, "spot", torch.full((len(idx), 3), 0.8))[0] - static
+    dark = form_images(s, idx, y, "spot", torch.full((len(idx), 3), 0.05))[0] - static
+    assert float(bright.sum()) > float(dark.sum())  # a brighter body gives the walls more light
+
+
+def test_torch_draws_follow_the_datasets_distribution():
+    """The training-time draws and the generator's numpy draws: same mean, spread and bounds per
+    channel (20,000 each; the standard error of a mean is about 0.001)."""
+    rng = np.random.default_rng(0)
+    ref = np.stack([_clothing_albedo(rng) for _ in range(20_000)])
+    got = clothing_albedo(20_000, torch.Generator().manual_seed(0)).numpy()
+    assert got.shape == (20_000, 3)
+    assert np.allclose(got.mean(0), ref.mean(0), atol=0.006)
+    assert np.allclose(got.std(0), ref.std(0), atol=0.006)
+    assert got.min() >= 0.05 and got.max() <= 0.8
+    assert np.allclose(np.corrcoef(got.T), np.corrcoef(ref.T), atol=0.02)
+
+
+def test_albedo_factors_need_stored_albedos(toy_scene):
+    from nlos_spotlight.errors import NlosError
+
+    s = toy_scene(4)
+    with pytest.raises(NlosError, match="albedo"):
+        albedo_factors(s, torch.arange(2), torch.full((2, 3), 0.3))
