@@ -57,7 +57,9 @@ def parse_variant(spec: str) -> tuple[int, bool]:
     return int(frames), extra == "albedo"
 
 
-def fit_room(args, i: int, room: Path, test_cfg: dict) -> list[dict]:
+def fit_room(args, i: int, room: Path, test_cfg: dict, rows: list[dict], write) -> None:
+    """Render the room's simulated people, then one network per variant; each variant's rows are
+    appended to ``rows`` and written (``write``) as soon as it is scored."""
     from nlos_spotlight.data.generate import generate
     from nlos_spotlight.data.tensors import load_scene_tensors, load_split
     from nlos_spotlight.evaluate.seen import split_room
@@ -75,10 +77,9 @@ def fit_room(args, i: int, room: Path, test_cfg: dict) -> list[dict]:
     split = split_room(s, period=10, max_eval=100)
     static = torch.nonzero(test.trajectory[:, 0] < 0).flatten()
     test = test.subset(static)
-    rows = []
     for spec in args.variants:
         rows += fit_variant(args, out, spec, split, test, render_s)
-    return rows
+        write(rows)
 
 
 def fit_variant(args, out: Path, spec: str, split, test, render_s: float) -> list[dict]:
@@ -162,14 +163,17 @@ def main() -> None:
             raise SystemExit(f"{room}: not generated (nlos generate {args.test} ... --shard {room.name[5:].lstrip('0') or 0}/N)")
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / f"room-fit-{args.first}-{args.first + len(rooms)}.csv"
-    rows = []
-    for i, room in enumerate(rooms, args.first):
-        rows += fit_room(args, i, room, test_cfg)
+
+    def write(rows: list[dict]) -> None:
         with path.with_suffix(".tmp").open("w", newline="") as f:
             w = csv.DictWriter(f, COLUMNS)
             w.writeheader()
             w.writerows(rows)
         path.with_suffix(".tmp").replace(path)
+
+    rows = []
+    for i, room in enumerate(rooms, args.first):
+        fit_room(args, i, room, test_cfg, rows, write)
     summary(args)
 
 
