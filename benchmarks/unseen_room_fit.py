@@ -49,12 +49,32 @@ def room_dataset(test_cfg: dict, room: Path, people: int, transport: int, seed: 
                          **{k: test_cfg[k] for k in keep if k in test_cfg})
 
 
-def parse_variant(spec: str) -> tuple[int, bool]:
-    """'16' -> (16 frames a still capture, no albedo augmentation); '16+albedo' -> (16, True)."""
-    frames, _, extra = spec.partition("+")
-    if not frames.isdigit() or int(frames) < 1 or extra not in ("", "albedo"):
-        raise SystemExit(f"--variants: expected FRAMES or FRAMES+albedo (e.g. 16+albedo), got {spec!r}")
-    return int(frames), extra == "albedo"
+@dataclasses.dataclass
+class Variant:
+    """One network's capture and training on a fitted room's people (``--variants``)."""
+
+    frames: int
+    """Frames a still capture averages (training and test photographs)."""
+    albedo: bool
+    """Albedo augmentation (``TrainConfig.albedo_augment``)."""
+    epochs: float | None
+    """Passes over the training people; None: ``--epochs``."""
+
+    def describe(self) -> str:
+        what = f"{self.frames}-frame burst" if self.frames > 1 else "one frame"
+        return what + ", albedo augmentation" * self.albedo + (f", {self.epochs:g} epochs" if self.epochs else "")
+
+
+def parse_variant(spec: str) -> Variant:
+    """'16' -> 16 frames a still capture; '+albedo' adds albedo augmentation, '+eN' N epochs
+    (e.g. '16+albedo', '16+e120')."""
+    frames, *extra = spec.split("+")
+    epochs = [e[1:] for e in extra if e.startswith("e")]
+    ok = frames.isdigit() and int(frames) >= 1 and all(e in ("albedo",) or e[:1] == "e" for e in extra) \
+        and len(epochs) <= 1 and all(e.replace(".", "", 1).isdigit() and float(e) > 0 for e in epochs)
+    if not ok:
+        raise SystemExit(f"--variants: expected FRAMES[+albedo][+eEPOCHS] (e.g. 16+albedo, 16+e120), got {spec!r}")
+    return Variant(int(frames), "albedo" in extra, float(epochs[0]) if epochs else None)
 
 
 def fit_room(args, i: int, room: Path, test_cfg: dict, rows: list[dict], write) -> None:
@@ -93,12 +113,12 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float) -> lis
     from nlos_spotlight.evaluate.unseen import room_lights
     from nlos_spotlight.train.loop import Trainer
 
-    frames, albedo = parse_variant(spec)
+    v = parse_variant(spec)
     cfg = seen_config(1, args.seed, noise=True, policy="oracle")
-    cfg = dataclasses.replace(cfg, sensor={"burst_frames": frames} if frames > 1 else {}, albedo_augment=albedo)
+    cfg = dataclasses.replace(cfg, sensor={"burst_frames": v.frames} if v.frames > 1 else {}, albedo_augment=v.albedo)
     run = out / ("run" if spec == "1" else f"run-{spec.replace('+', '-')}")  # '1': the first fits' folder
     per_epoch = max(1, split.pool.num_samples // cfg.batch_size)
-    steps = max(args.min_steps, round(args.epochs * per_epoch))
+    steps = max(args.min_steps, round((v.epochs or args.epochs) * per_epoch))
     every = max(per_epoch, steps // 25)
     cfg = dataclasses.replace(cfg, steps=steps, eval_every=every, ckpt_every=every, log_every=every,
                               select=args.select)
@@ -211,9 +231,7 @@ def summary(args) -> None:
         mean = lambda k: np.mean([float(r[k]) for r in fit])
         held = [float(rows[r, "heldout"]["posture_accuracy"]) for r in done if (r, "heldout") in rows]
         held = f"{np.mean(held):.1f}% ({len(held)} rooms)" if held else ""
-        frames, albedo = parse_variant(variant)
-        what = f"{frames}-frame burst" if frames > 1 else "one frame"
-        lines.append(f"| fitted in the room: {people} training people, {what}{', albedo augmentation' * albedo} | "
+        lines.append(f"| fitted in the room: {people} training people, {parse_variant(variant).describe()} | "
                      f"{len(done)} | {mean('posture_accuracy'):.1f}% | {mean('posture3_accuracy'):.1f}% | "
                      f"{mean('error_cm'):.1f} cm | {mean('mean_answer_cm'):.1f} cm | {held} |")
     for spec in args.compare:
