@@ -16,7 +16,12 @@ under the spot chosen from the synthetic people and under the room's oracle spot
 
     python benchmarks/unseen_room_fit.py --test out/unseen/test --rooms 6 --people 1500 --out out/unseen/room-fit
 
-Writes ``--out``/room-fit.csv (room, spot, people, posture_accuracy, posture3_accuracy, error_cm,
+``--variants`` trains one network per variant on the same people: frames a still capture averages
+(training and test photographs), ``+albedo`` albedo augmentation, ``+eN`` N epochs (e.g. ``1 16
+16+albedo 16+e120``). Each network is also scored on 100 more simulated people of the fit (the
+split's test people), a tighter estimate than the room's 30 test people.
+
+Writes ``--out``/room-fit-FIRST-LAST.csv (room, variant, spot, people, posture_accuracy, posture3_accuracy, error_cm,
 mean_answer_cm, test_people, render_s, train_s) and per room its data, run and predictions.
 Resumable: a room's dataset resumes, a trained room keeps ``best.pt``.
 """
