@@ -40,7 +40,8 @@ def test_form_images_in_own_albedo_is_unchanged(micro_scene):
     idx = torch.arange(s.num_samples)
     spot = int(torch.nonzero(s.landed & s.stored).flatten()[0])
     y = torch.nn.functional.one_hot(torch.tensor(spot), len(s.landed)).float()
-    for mode in ("spot", "ambient") + (("flash",) if s.flash_nlos is not None else ()):
+    flash = s.flash_direct is not None and s.flash_nlos is not None
+    for mode in ("spot", "ambient") + (("flash",) * flash):
         want, static = form_images(s, idx, y, mode)
         got, static2 = form_images(s, idx, y, mode, s.albedo[idx])
         assert torch.equal(static, static2)
