@@ -82,6 +82,14 @@ def parse_variant(spec: str) -> Variant:
     return Variant(int(frames), "albedo" in extra, float(epochs[0]) if epochs else None)
 
 
+def first_seconds(path: Path, t0: float) -> float:
+    """Seconds since ``t0`` the first time a step finishes, kept at ``path``: a resumed or rescored
+    room reports the time its work took, not the rerun's."""
+    if not path.exists():
+        path.write_text(json.dumps(time.perf_counter() - t0))
+    return float(json.loads(path.read_text()))
+
+
 def fit_room(args, i: int, room: Path, test_cfg: dict, rows: list[dict], write) -> None:
     """Render the room's simulated people, then one network per variant; each variant's rows are
     appended to ``rows`` and written (``write``) as soon as it is scored."""
@@ -93,10 +101,7 @@ def fit_room(args, i: int, room: Path, test_cfg: dict, rows: list[dict], write) 
     data = out / "data"
     t0 = time.perf_counter()
     generate(room_dataset(test_cfg, room, args.people, args.transport, 5000 + i), data, progress=False)
-    timing = out / "render_seconds.json"  # the first, whole rendering (a rerun only checks digests)
-    if not timing.exists():
-        timing.write_text(json.dumps(time.perf_counter() - t0))
-    render_s = json.loads(timing.read_text())
+    render_s = first_seconds(out / "render_seconds.json", t0)  # a rerun only checks digests
     s, = load_split(data, "train", ["normals"], samples="images")
     test = load_scene_tensors(room, ["normals"], samples="transport")
     fit_aims = np.load(next((data / "scenes").iterdir()) / "static.npz")["aim_points"]
@@ -134,10 +139,7 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float) -> lis
     if (run / "checkpoint.pt").exists():
         tr.load(run / "checkpoint.pt")
     train_validated(tr, run)
-    timing = run / "train_seconds.json"  # kept, so a rescored run reports its training time
-    if not timing.exists():
-        timing.write_text(json.dumps(time.perf_counter() - t1))
-    train_s = json.loads(timing.read_text())
+    train_s = first_seconds(run / "train_seconds.json", t1)  # a rescored run reports its training
     (y, _, _), = tr.illuminations([tr.scenes[0]], train=False)
     oracle = room_lights([test], "oracle", 0)[0].spot_vector(len(test.faces))
     # the room's test people under both spots; "heldout": 100 more simulated people of the fit (a
@@ -163,9 +165,9 @@ def main() -> None:
     ap.add_argument("--test", type=Path, required=True, help="test dataset (unseen-test.yaml)")
     ap.add_argument("--rooms", type=int, default=6, help="ROOMS test rooms from --first (by index, each finished)")
     ap.add_argument("--first", type=int, default=0, help="start at this test room")
-    ap.add_argument("--variants", nargs="+", default=["1"], metavar="FRAMES[+albedo]",
+    ap.add_argument("--variants", nargs="+", default=["1"], metavar="FRAMES[+albedo][+eEPOCHS]",
                     help="one network per variant on the same people: frames a still capture averages "
-                         "(train and test), '+albedo' for albedo augmentation (e.g. 1 16 16+albedo)")
+                         "(train and test), '+albedo' for albedo augmentation, '+eN' N epochs (e.g. 1 16 16+e120)")
     ap.add_argument("--also", nargs="*", type=Path, default=[], metavar="CSV",
                     help="earlier fits' room-fit CSVs to summarize beside these (e.g. the committed 1,200-people fits)")
     ap.add_argument("--people", type=int, default=1500, help="synthetic people per room")
@@ -193,7 +195,8 @@ def main() -> None:
     rooms = [args.test / "scenes" / scene_id("test", i) for i in range(args.first, args.first + args.rooms)]
     for room in rooms:  # by index, so that workers on disjoint rooms can start before all are generated
         if not (room / "done.json").exists():
-            raise SystemExit(f"{room}: not generated (nlos generate {args.test} ... --shard {room.name[5:].lstrip('0') or 0}/N)")
+            raise SystemExit(f"{room}: not generated (nlos generate CONFIG --out {args.test} --shard I/N, "
+                             "I its scene index)")
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / f"room-fit-{args.first}-{args.first + len(rooms)}.csv"
 
