@@ -17,8 +17,9 @@ under the spot chosen from the synthetic people and under the room's oracle spot
     python benchmarks/unseen_room_fit.py --test out/unseen/test --rooms 6 --people 1500 --out out/unseen/room-fit
 
 ``--variants`` trains one network per variant on the same people: frames a still capture averages
-(training and test photographs), ``+albedo`` albedo augmentation, ``+eN`` N epochs (e.g. ``1 16
-16+albedo 16+e120``). Each network is also scored on 100 more simulated people of the fit (the
+(training and test photographs), ``+albedo`` albedo augmentation, ``+eN`` N epochs, ``+pN`` only
+the first N training people (a learning curve on the same render), ``+wdX`` weight decay X (e.g. ``1 16
+16+albedo 16+e120 16+e120+p1396``). Each network is also scored on 100 more simulated people of the fit (the
 split's test people), a tighter estimate than the room's 30 test people.
 
 Writes ``--out``/room-fit-FIRST-LAST.csv (room, variant, spot, people, posture_accuracy, posture3_accuracy, error_cm,
@@ -64,22 +65,49 @@ class Variant:
     """Albedo augmentation (``TrainConfig.albedo_augment``)."""
     epochs: float | None
     """Passes over the training people; None: ``--epochs``."""
+    people: int | None = None
+    """Only the first this many training people; None: all of them."""
+    weight_decay: float | None = None
+    """Adam's L2 weight decay; None: the seen-rooms recipe's."""
 
     def describe(self) -> str:
         what = f"{self.frames}-frame burst" if self.frames > 1 else "one frame"
-        return what + ", albedo augmentation" * self.albedo + (f", {self.epochs:g} epochs" if self.epochs else "")
+        return (what + ", albedo augmentation" * self.albedo + (f", {self.epochs:g} epochs" if self.epochs else "")
+                + (f", weight decay {self.weight_decay:g}" if self.weight_decay is not None else ""))
+
+
+VARIANT_HELP = "FRAMES[+albedo][+eEPOCHS][+pPEOPLE][+wdDECAY] (e.g. 16+albedo, 16+e120, 16+e120+p1396, 16+wd1e-3)"
+
+
+def _number(text: str, kind: type) -> float | None:
+    try:
+        v = kind(text)
+    except ValueError:
+        return None
+    return v if v >= 0 else None
 
 
 def parse_variant(spec: str) -> Variant:
-    """'16' -> 16 frames a still capture; '+albedo' adds albedo augmentation, '+eN' N epochs
-    (e.g. '16+albedo', '16+e120')."""
+    """'16' -> 16 frames a still capture; '+albedo' adds albedo augmentation, '+eN' N epochs, '+pN'
+    only the first N training people, '+wdX' weight decay X (e.g. '16+albedo', '16+e120+p1396')."""
     frames, *extra = spec.split("+")
-    epochs = [e[1:] for e in extra if e.startswith("e")]
-    ok = frames.isdigit() and int(frames) >= 1 and all(e in ("albedo",) or e[:1] == "e" for e in extra) \
-        and len(epochs) <= 1 and all(e.replace(".", "", 1).isdigit() and float(e) > 0 for e in epochs)
+    v = Variant(int(frames) if frames.isdigit() else 0, False, None)
+    ok = v.frames >= 1 and len(set(e.rstrip("0123456789.e-") for e in extra)) == len(extra)
+    for e in extra:
+        if e == "albedo":
+            v.albedo = True
+        elif e.startswith("wd"):
+            v.weight_decay = _number(e[2:], float)
+            ok &= v.weight_decay is not None
+        elif e[:1] in ("e", "p"):
+            n = _number(e[1:], float if e[0] == "e" else int)
+            ok &= bool(n)
+            v.epochs, v.people = (n, v.people) if e[0] == "e" else (v.epochs, n)
+        else:
+            ok = False
     if not ok:
-        raise SystemExit(f"--variants: expected FRAMES[+albedo][+eEPOCHS] (e.g. 16+albedo, 16+e120), got {spec!r}")
-    return Variant(int(frames), "albedo" in extra, float(epochs[0]) if epochs else None)
+        raise SystemExit(f"--variants: expected {VARIANT_HELP}, got {spec!r}")
+    return v
 
 
 def first_seconds(path: Path, t0: float) -> float:
@@ -126,6 +154,12 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float) -> lis
     v = parse_variant(spec)
     cfg = seen_config(1, args.seed, noise=True, policy="oracle")
     cfg = dataclasses.replace(cfg, sensor={"burst_frames": v.frames} if v.frames > 1 else {}, albedo_augment=v.albedo)
+    if v.weight_decay is not None:
+        cfg = dataclasses.replace(cfg, weight_decay=v.weight_decay)
+    if v.people is not None:
+        if v.people > split.pool.num_samples:
+            raise SystemExit(f"--variants {spec}: the room has only {split.pool.num_samples} training people")
+        split = dataclasses.replace(split, pool=split.pool.subset(torch.arange(v.people)))
     run = out / ("run" if spec == "1" else f"run-{spec.replace('+', '-')}")  # '1': the first fits' folder
     per_epoch = max(1, split.pool.num_samples // cfg.batch_size)
     steps = max(args.min_steps, round((v.epochs or args.epochs) * per_epoch))
@@ -165,9 +199,10 @@ def main() -> None:
     ap.add_argument("--test", type=Path, required=True, help="test dataset (unseen-test.yaml)")
     ap.add_argument("--rooms", type=int, default=6, help="ROOMS test rooms from --first (by index, each finished)")
     ap.add_argument("--first", type=int, default=0, help="start at this test room")
-    ap.add_argument("--variants", nargs="+", default=["1"], metavar="FRAMES[+albedo][+eEPOCHS]",
+    ap.add_argument("--variants", nargs="+", default=["1"], metavar="VARIANT",
                     help="one network per variant on the same people: frames a still capture averages "
-                         "(train and test), '+albedo' for albedo augmentation, '+eN' N epochs (e.g. 1 16 16+e120)")
+                         "(train and test), '+albedo' for albedo augmentation, '+eN' N epochs, '+pN' the first N "
+                         f"training people, '+wdX' weight decay X: {VARIANT_HELP}")
     ap.add_argument("--also", nargs="*", type=Path, default=[], metavar="CSV",
                     help="earlier fits' room-fit CSVs to summarize beside these (e.g. the committed 1,200-people fits)")
     ap.add_argument("--people", type=int, default=1500, help="synthetic people per room")
