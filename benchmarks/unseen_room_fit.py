@@ -18,8 +18,9 @@ under the spot chosen from the synthetic people and under the room's oracle spot
 
 ``--variants`` trains one network per variant on the same people: frames a still capture averages
 (training and test photographs), ``+albedo`` albedo augmentation, ``+eN`` N epochs, ``+pN`` only
-the first N training people (a learning curve on the same render), ``+wdX`` weight decay X (e.g. ``1 16
-16+albedo 16+e120 16+e120+p1396``). Each network is also scored on 100 more simulated people of the fit (the
+the first N training people (a learning curve on the same render), ``+wdX`` weight decay X, ``+xN``
+the training people of N independent renders of ``--people`` (``data``, ``data-2``, ...; other master
+seeds), validation and held-out people from the first (e.g. ``1 16 16+albedo 16+e120 16+e120+x2``). Each network is also scored on 100 more simulated people of the fit (the
 split's test people), a tighter estimate than the room's 30 test people.
 
 Writes ``--out``/room-fit-FIRST-LAST.csv (room, variant, spot, people, posture_accuracy, posture3_accuracy, error_cm,
@@ -69,14 +70,19 @@ class Variant:
     """Only the first this many training people; None: all of them."""
     weight_decay: float | None = None
     """Adam's L2 weight decay; None: the seen-rooms recipe's."""
+    renders: int = 1
+    """Training people from this many independent renders of ``--people`` each (the validation and
+    held-out people always from the first)."""
 
     def describe(self) -> str:
         what = f"{self.frames}-frame burst" if self.frames > 1 else "one frame"
         return (what + ", albedo augmentation" * self.albedo + (f", {self.epochs:g} epochs" if self.epochs else "")
-                + (f", weight decay {self.weight_decay:g}" if self.weight_decay is not None else ""))
+                + (f", weight decay {self.weight_decay:g}" if self.weight_decay is not None else "")
+                + (f", people of {self.renders} renders" if self.renders > 1 else ""))
 
 
-VARIANT_HELP = "FRAMES[+albedo][+eEPOCHS][+pPEOPLE][+wdDECAY] (e.g. 16+albedo, 16+e120, 16+e120+p1396, 16+wd1e-3)"
+VARIANT_HELP = ("FRAMES[+albedo][+eEPOCHS][+pPEOPLE][+wdDECAY][+xRENDERS] (e.g. 16+albedo, 16+e120, 16+e120+p1396, "
+                "16+wd1e-3, 16+e120+x2)")
 
 
 def _number(text: str, kind: type) -> float | None:
@@ -99,10 +105,11 @@ def parse_variant(spec: str) -> Variant:
         elif e.startswith("wd"):
             v.weight_decay = _number(e[2:], float)
             ok &= v.weight_decay is not None
-        elif e[:1] in ("e", "p"):
+        elif e[:1] in ("e", "p", "x"):
             n = _number(e[1:], float if e[0] == "e" else int)
             ok &= bool(n)
-            v.epochs, v.people = (n, v.people) if e[0] == "e" else (v.epochs, n)
+            if n:
+                setattr(v, {"e": "epochs", "p": "people", "x": "renders"}[e[0]], n)
         else:
             ok = False
     if not ok:
@@ -131,6 +138,14 @@ def fit_room(args, i: int, room: Path, test_cfg: dict, rows: list[dict], write) 
     generate(room_dataset(test_cfg, room, args.people, args.transport, 5000 + i), data, progress=False)
     render_s = first_seconds(out / "render_seconds.json", t0)  # a rerun only checks digests
     s, = load_split(data, "train", ["normals"], samples="images")
+    more = []  # further independent renders of the room's people ('+xN'), their own master seeds
+    for r in range(1, max(parse_variant(spec).renders for spec in args.variants)):
+        t0 = time.perf_counter()
+        generate(room_dataset(test_cfg, room, args.people, args.transport, 5000 + i + 100_000 * r),
+                 out / f"data-{r + 1}", progress=False)
+        secs = first_seconds(out / f"render_seconds-{r + 1}.json", t0)
+        more.append((split_room(load_split(out / f"data-{r + 1}", "train", ["normals"], samples="images")[0],
+                                period=10, max_eval=100).pool, secs))
     test = load_scene_tensors(room, ["normals"], samples="transport")
     fit_aims = np.load(next((data / "scenes").iterdir()) / "static.npz")["aim_points"]
     if not np.allclose(fit_aims, np.load(room / "static.npz")["aim_points"], atol=1e-6):
@@ -139,11 +154,11 @@ def fit_room(args, i: int, room: Path, test_cfg: dict, rows: list[dict], write) 
     static = torch.nonzero(test.trajectory[:, 0] < 0).flatten()
     test = test.subset(static)
     for spec in args.variants:
-        rows += fit_variant(args, out, spec, split, test, render_s)
+        rows += fit_variant(args, out, spec, split, test, render_s, more)
         write(rows)
 
 
-def fit_variant(args, out: Path, spec: str, split, test, render_s: float) -> list[dict]:
+def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: list) -> list[dict]:
     """One network for the room's simulated people with the capture and augmentation of ``spec``,
     scored on the room's test people under the fitted spot and the test people's oracle spot."""
     from nlos_spotlight.data.store import atomic_npz
@@ -160,6 +175,9 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float) -> lis
         if v.people > split.pool.num_samples:
             raise SystemExit(f"--variants {spec}: the room has only {split.pool.num_samples} training people")
         split = dataclasses.replace(split, pool=split.pool.subset(torch.arange(v.people)))
+    for pool, secs in more[:v.renders - 1]:  # the further renders' training people ('+xN')
+        split = dataclasses.replace(split, pool=split.pool.concat(pool))
+        render_s += secs
     run = out / ("run" if spec == "1" else f"run-{spec.replace('+', '-')}")  # '1': the first fits' folder
     per_epoch = max(1, split.pool.num_samples // cfg.batch_size)
     steps = max(args.min_steps, round((v.epochs or args.epochs) * per_epoch))
@@ -202,7 +220,7 @@ def main() -> None:
     ap.add_argument("--variants", nargs="+", default=["1"], metavar="VARIANT",
                     help="one network per variant on the same people: frames a still capture averages "
                          "(train and test), '+albedo' for albedo augmentation, '+eN' N epochs, '+pN' the first N "
-                         f"training people, '+wdX' weight decay X: {VARIANT_HELP}")
+                         f"training people, '+wdX' weight decay X, '+xN' people of N renders: {VARIANT_HELP}")
     ap.add_argument("--also", nargs="*", type=Path, default=[], metavar="CSV",
                     help="earlier fits' room-fit CSVs to summarize beside these (e.g. the committed 1,200-people fits)")
     ap.add_argument("--people", type=int, default=1500, help="synthetic people per room")
@@ -242,7 +260,11 @@ def main() -> None:
             w.writerows(rows)
         path.with_suffix(".tmp").replace(path)
 
-    rows = []
+    rows = []  # an earlier run's rows of other variants in the same CSV are kept
+    if path.exists():
+        with path.open(newline="") as f:
+            rows = [{"variant": "1", **r} for r in csv.DictReader(f)]
+        rows = [r for r in rows if r["variant"] not in args.variants]
     for i, room in enumerate(rooms, args.first):
         fit_room(args, i, room, test_cfg, rows, write)
     summary(args)

@@ -93,6 +93,31 @@ class SceneTensors:
         take = lambda k, v: v[idx] if k in PER_SAMPLE and v is not None else v
         return SceneTensors(**{k: take(k, getattr(self, k)) for k in self.__dataclass_fields__})
 
+    def concat(self, other: "SceneTensors") -> "SceneTensors":
+        """This room's samples followed by ``other``'s, people of the same room rendered apart (two
+        datasets of one scan): the room tensors must agree; the stored spots are those both hold.
+
+        An image sample's ``u`` maps every candidate to its own slot, so samples whose datasets
+        store different spots (each chooses its own from its full-transport people) stay exact."""
+        out = {}
+        for k in self.__dataclass_fields__:
+            a, b = getattr(self, k), getattr(other, k)
+            if k in PER_SAMPLE:
+                if (a is None) != (b is None) or (a is not None and a.shape[1:] != b.shape[1:]):
+                    raise NlosError(f"concat: the two sets of people differ in {k!r} (other render settings)")
+                out[k] = torch.cat([a, b]) if a is not None else None
+            elif k == "stored":
+                out[k] = a & b if a is not None and b is not None else (a if b is None else b)
+            elif k == "scene_dir":
+                out[k] = a
+            elif isinstance(a, torch.Tensor) or isinstance(b, torch.Tensor):
+                if a is None or b is None or a.shape != b.shape or not torch.allclose(a, b, rtol=1e-5, atol=1e-7):
+                    raise NlosError(f"concat: the two sets of people are not in the same room ({k!r} differs)")
+                out[k] = a
+            else:
+                out[k] = a
+        return SceneTensors(**out)
+
 
 PER_SAMPLE = ("u", "v", "nlos_ambient", "target", "posture", "trajectory", "flash_nlos", "transport", "nuisance",
               "albedo")

@@ -139,6 +139,30 @@ def test_unstored_spot_raises(datasets):
     form_images(s, torch.arange(N), None, "ambient")
 
 
+def test_concat_people_of_two_renders(datasets):
+    """People of one room rendered apart (``SceneTensors.concat``): every sample keeps its own image
+    under every spot both renders store, even where the second stores its spots in another order."""
+    mixed, _, _ = datasets
+    im = load_scene_tensors(mixed, [], samples="images")
+    a, b = im.subset(torch.tensor([0])), im.subset(torch.tensor([1, 2]))
+    # the second render as if it had chosen its spots in reverse slot order and dropped one
+    spots = im.stored.nonzero().flatten()
+    stored_b = im.stored.clone()
+    stored_b[spots[0]] = False
+    b = dataclasses.replace(b, u=b.u.flip(2), v=b.v.flip(1), stored=stored_b)
+    both = a.concat(b)
+    assert both.num_samples == 3 and torch.equal(both.stored, stored_b) and torch.equal(both.posture, im.posture)
+    for spot in spots[1:]:
+        y = torch.zeros(len(im.faces))
+        y[spot] = 1
+        got, want = form_images(both, torch.arange(3), y), form_images(im, torch.arange(3), y)
+        assert want[0].abs().max() > 0 and all(torch.equal(g, w) for g, w in zip(got, want))
+    with pytest.raises(NlosError, match="not in the same room .'direct' differs"):
+        a.concat(dataclasses.replace(b, direct=b.direct * 1.01))
+    with pytest.raises(NlosError, match="differ in 'v'"):
+        a.concat(dataclasses.replace(b, v=b.v[:, :1]))
+
+
 def test_resume_rebuilds_what_is_missing(datasets, tmp_path):
     mixed, _, root = datasets
     manifest = json.loads((root / "mixed" / "manifest.json").read_text())
