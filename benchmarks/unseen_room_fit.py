@@ -323,10 +323,34 @@ def summary(args) -> None:
         same = sum(rows[r, "fit"]["spot"].split(":")[1] == rows[r, "oracle"]["spot"].split(":")[1] for r in done)
         lines.append(f"{people} people, variant {variant}: the spot chosen from the simulated people is the test "
                      f"people's oracle in {same} of {len(done)} rooms.")
+    lines += people_curve(fits)
     text = "\n".join(lines)
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "summary.md").write_text(text + "\n")
+
+
+def people_curve(fits: dict) -> list[str]:
+    """Training people against accuracy on the rooms fitted at every size: variants that differ only
+    in '+pN' / '+xN' (the same renders, fewer or more of them), so that rooms do not confound people."""
+    base = lambda v: "+".join(e for e in v.split("+") if e[:1] not in ("p", "x") or e == v.split("+")[0])
+    curves = {}
+    for (people, variant), rows in fits.items():
+        curves.setdefault(base(variant), {})[people] = rows
+    lines = []
+    for b, sizes in sorted(curves.items()):
+        held = lambda rows: {r for r, kind in rows if kind == "heldout"}
+        common = sorted(set.intersection(*(held(rows) for rows in sizes.values())))
+        if len(sizes) < 2 or not common:
+            continue
+        lines += ["", f"Training people, variant {b} (+pN: the first N people of the render, +xN: N renders), "
+                      f"on the {len(common)} rooms fitted at every size ({', '.join(common)}):",
+                  "| training people | six-way (test) | six-way (simulated) | error (simulated) |", "|---|---|---|---|"]
+        for people, rows in sorted(sizes.items()):
+            mean = lambda kind, k: np.mean([float(rows[r, kind][k]) for r in common])
+            lines.append(f"| {people} | {mean('fit', 'posture_accuracy'):.1f}% | "
+                         f"{mean('heldout', 'posture_accuracy'):.1f}% | {mean('heldout', 'error_cm'):.1f} cm |")
+    return lines
 
 
 if __name__ == "__main__":
