@@ -98,10 +98,15 @@ class SceneTensors:
         datasets of one scan): the room tensors must agree; the stored spots are those both hold.
 
         An image sample's ``u`` maps every candidate to its own slot, so samples whose datasets
-        store different spots (each chooses its own from its full-transport people) stay exact."""
+        store different spots (each chooses its own from its full-transport people, and may store
+        more or fewer) stay exact: the fewer slots are padded with zeros, which add no light."""
         out = {}
+        slots = max(self.u.shape[2], other.u.shape[2])
+        pad = lambda x, dim: torch.cat([x, x.new_zeros(*x.shape[:dim], slots - x.shape[dim], *x.shape[dim + 1:])], dim)
         for k in self.__dataclass_fields__:
             a, b = getattr(self, k), getattr(other, k)
+            if k in ("u", "v"):
+                a, b = (pad(x, 2 if k == "u" else 1) for x in (a, b))
             if k in PER_SAMPLE:
                 if (a is None) != (b is None) or (a is not None and a.shape[1:] != b.shape[1:]):
                     raise NlosError(f"concat: the two sets of people differ in {k!r} (other render settings)")

@@ -159,8 +159,15 @@ def test_concat_people_of_two_renders(datasets):
         assert want[0].abs().max() > 0 and all(torch.equal(g, w) for g, w in zip(got, want))
     with pytest.raises(NlosError, match="not in the same room .'direct' differs"):
         a.concat(dataclasses.replace(b, direct=b.direct * 1.01))
+    # a render that stores fewer spots: padded with empty slots
+    one = dataclasses.replace(b, u=b.u[:, :, -1:], v=b.v[:, -1:], stored=im.stored)  # its slot: spots[0]
+    y = torch.zeros(len(im.faces))
+    y[spots[0]] = 1
+    got = form_images(one.concat(a), torch.arange(3), y)
+    want = form_images(im.subset(torch.tensor([1, 2, 0])), torch.arange(3), y)
+    assert want[0].abs().max() > 0 and all(torch.equal(g, w) for g, w in zip(got, want))
     with pytest.raises(NlosError, match="differ in 'v'"):
-        a.concat(dataclasses.replace(b, v=b.v[:, :1]))
+        a.concat(dataclasses.replace(b, v=b.v[:, :, :4]))
 
 
 def test_resume_rebuilds_what_is_missing(datasets, tmp_path):
