@@ -29,23 +29,25 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from unseen_room_fit import parse_variant, run_dir, training_split  # this folder: run as a script
+
 COLUMNS = ["room", "variant", "split", "people", "posture_accuracy", "posture3_accuracy", "error_cm"]
 
 
 def score_room(room: Path, variant: str, train_people: int, seed: int) -> list[dict]:
     """The run's best weights on its first ``train_people`` training people and on its held-out people."""
-    from nlos_spotlight.data.tensors import load_split
-    from nlos_spotlight.evaluate.seen import score_rooms, split_room
+    from nlos_spotlight.evaluate.seen import score_rooms
     from nlos_spotlight.train.config import TrainConfig
     from nlos_spotlight.train.loop import Trainer
 
-    run = room / ("run" if variant == "1" else f"run-{variant.replace('+', '-')}")
+    run = run_dir(room, variant)
     if not (run / "best.pt").exists():
         raise SystemExit(f"{run}: no best.pt (fit the room first: benchmarks/unseen_room_fit.py)")
+    if parse_variant(variant).renders > 1:  # its spot was chosen on the renders together
+        raise SystemExit(f"--variants {variant}: people of several renders are not scored here")
     cfg = TrainConfig.from_dict(json.loads((run / "config.json").read_text())["train"])
-    s, = load_split(room / "data", "train", ["normals"], samples="images")
-    split = split_room(s, period=10, max_eval=100)
-    tr = Trainer(cfg, [split.pool], run / "gap-scratch", val_scenes=[split.val])
+    split = training_split(room / "data")
+    tr = Trainer(cfg, [split.pool], run, val_scenes=[split.val])  # writes nothing; scored, not trained
     tr.load(run / "best.pt")
     (y, _, _), = tr.illuminations([tr.scenes[0]], train=False)
     seen = split.pool.subset(torch.arange(min(train_people, split.pool.num_samples)))
@@ -76,7 +78,7 @@ def main() -> None:
     rows = []
     for room in rooms:
         for v in args.variants:
-            if (room / ("run" if v == "1" else f"run-{v.replace('+', '-')}") / "best.pt").exists():
+            if (run_dir(room, v) / "best.pt").exists():
                 rows += score_room(room, v, args.train_people, args.seed)
     if not rows:
         raise SystemExit(f"{args.fits}: no fitted run of variants {args.variants}")

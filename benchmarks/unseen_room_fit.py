@@ -98,7 +98,8 @@ def parse_variant(spec: str) -> Variant:
     only the first N training people, '+wdX' weight decay X (e.g. '16+albedo', '16+e120+p1396')."""
     frames, *extra = spec.split("+")
     v = Variant(int(frames) if frames.isdigit() else 0, False, None)
-    ok = v.frames >= 1 and len(set(e.rstrip("0123456789.e-") for e in extra)) == len(extra)
+    kind = lambda e: e if e == "albedo" else "wd" if e.startswith("wd") else e[:1]
+    ok = v.frames >= 1 and len({kind(e) for e in extra}) == len(extra)  # each option at most once
     for e in extra:
         if e == "albedo":
             v.albedo = True
@@ -117,6 +118,20 @@ def parse_variant(spec: str) -> Variant:
     return v
 
 
+def run_dir(room_out: Path, spec: str) -> Path:
+    """A variant's run folder in a fitted room's folder ('1': ``run``, the first fits' name)."""
+    return room_out / ("run" if spec == "1" else f"run-{spec.replace('+', '-')}")
+
+
+def training_split(data: Path):
+    """A fitted room's render split into training pool, 100 validation and 100 held-out people."""
+    from nlos_spotlight.data.tensors import load_split
+    from nlos_spotlight.evaluate.seen import split_room
+
+    s, = load_split(data, "train", ["normals"], samples="images")
+    return split_room(s, period=10, max_eval=100)
+
+
 def first_seconds(path: Path, t0: float) -> float:
     """Seconds since ``t0`` the first time a step finishes, kept at ``path``: a resumed or rescored
     room reports the time its work took, not the rerun's."""
@@ -129,28 +144,25 @@ def fit_room(args, i: int, room: Path, test_cfg: dict, rows: list[dict], write) 
     """Render the room's simulated people, then one network per variant; each variant's rows are
     appended to ``rows`` and written (``write``) as soon as it is scored."""
     from nlos_spotlight.data.generate import generate
-    from nlos_spotlight.data.tensors import load_scene_tensors, load_split
-    from nlos_spotlight.evaluate.seen import split_room
+    from nlos_spotlight.data.tensors import load_scene_tensors
 
     out = args.out / room.name
     data = out / "data"
     t0 = time.perf_counter()
     generate(room_dataset(test_cfg, room, args.people, args.transport, 5000 + i), data, progress=False)
     render_s = first_seconds(out / "render_seconds.json", t0)  # a rerun only checks digests
-    s, = load_split(data, "train", ["normals"], samples="images")
     more = []  # further independent renders of the room's people ('+xN'), their own master seeds
     for r in range(1, max(parse_variant(spec).renders for spec in args.variants)):
         t0 = time.perf_counter()
         generate(room_dataset(test_cfg, room, args.people, args.transport, 5000 + i + 100_000 * r),
                  out / f"data-{r + 1}", progress=False)
         secs = first_seconds(out / f"render_seconds-{r + 1}.json", t0)
-        more.append((split_room(load_split(out / f"data-{r + 1}", "train", ["normals"], samples="images")[0],
-                                period=10, max_eval=100).pool, secs))
+        more.append((training_split(out / f"data-{r + 1}").pool, secs))
     test = load_scene_tensors(room, ["normals"], samples="transport")
     fit_aims = np.load(next((data / "scenes").iterdir()) / "static.npz")["aim_points"]
     if not np.allclose(fit_aims, np.load(room / "static.npz")["aim_points"], atol=1e-6):
         raise SystemExit(f"{room.name}: the fitted room's candidate spots differ from the test room's")
-    split = split_room(s, period=10, max_eval=100)
+    split = training_split(data)
     static = torch.nonzero(test.trajectory[:, 0] < 0).flatten()
     test = test.subset(static)
     for spec in args.variants:
@@ -178,7 +190,7 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: 
     for pool, secs in more[:v.renders - 1]:  # the further renders' training people ('+xN')
         split = dataclasses.replace(split, pool=split.pool.concat(pool))
         render_s += secs
-    run = out / ("run" if spec == "1" else f"run-{spec.replace('+', '-')}")  # '1': the first fits' folder
+    run = run_dir(out, spec)
     per_epoch = max(1, split.pool.num_samples // cfg.batch_size)
     steps = max(args.min_steps, round((v.epochs or args.epochs) * per_epoch))
     every = max(per_epoch, steps // 25)
@@ -333,7 +345,7 @@ def summary(args) -> None:
 def people_curve(fits: dict) -> list[str]:
     """Training people against accuracy on the rooms fitted at every size: variants that differ only
     in '+pN' / '+xN' (the same renders, fewer or more of them), so that rooms do not confound people."""
-    base = lambda v: "+".join(e for e in v.split("+") if e[:1] not in ("p", "x") or e == v.split("+")[0])
+    base = lambda v: "+".join(e for e in v.split("+") if e[:1] not in ("p", "x"))  # FRAMES is digits
     curves = {}
     for (people, variant), rows in fits.items():
         curves.setdefault(base(variant), {})[people] = rows

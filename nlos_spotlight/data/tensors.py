@@ -113,8 +113,6 @@ class SceneTensors:
                 out[k] = torch.cat([a, b]) if a is not None else None
             elif k == "stored":
                 out[k] = a & b if a is not None and b is not None else (a if b is None else b)
-            elif k == "scene_dir":
-                out[k] = a
             elif isinstance(a, torch.Tensor) or isinstance(b, torch.Tensor):
                 if a is None or b is None or a.shape != b.shape or not torch.allclose(a, b, rtol=1e-5, atol=1e-7):
                     raise NlosError(f"concat: the two sets of people are not in the same room ({k!r} differs)")
