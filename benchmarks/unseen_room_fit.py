@@ -362,7 +362,31 @@ def people_curve(fits: dict) -> list[str]:
             mean = lambda kind, k: np.mean([float(rows[r, kind][k]) for r in common])
             lines.append(f"| {people} | {mean('fit', 'posture_accuracy'):.1f}% | "
                          f"{mean('heldout', 'posture_accuracy'):.1f}% | {mean('heldout', 'error_cm'):.1f} cm |")
+        lines += people_steps(b, sizes)
     return lines
+
+
+def people_steps(base: str, sizes: dict) -> list[str]:
+    """Each step of the people curve on every room fitted at both sizes (more rooms than the rooms
+    fitted at every size): the paired change, so that rooms do not confound people."""
+    held = lambda rows: {r for r, kind in rows if kind == "heldout"}
+    lines = ["", f"Each step, variant {base}, on the rooms fitted at both sizes (paired change, mean +- "
+             "standard error over the rooms):",
+             "| training people | rooms | six-way (test) | six-way (simulated) | error (simulated) |",
+             "|---|---|---|---|---|"]
+    steps = sorted(sizes)
+    for a, b in zip(steps, steps[1:]):
+        common = sorted(held(sizes[a]) & held(sizes[b]))
+        if not common:
+            continue
+        def delta(kind: str, k: str, unit: str = "") -> str:  # mean +- standard error over the rooms
+            d = np.array([float(sizes[b][r, kind][k]) - float(sizes[a][r, kind][k]) for r in common])
+            se = f" +- {d.std(ddof=1) / np.sqrt(len(d)):.1f}" if len(d) > 1 else ""
+            return f"{d.mean():+.1f}{se}{unit}"
+
+        lines.append(f"| {a} -> {b} | {len(common)} | {delta('fit', 'posture_accuracy')} | "
+                     f"{delta('heldout', 'posture_accuracy')} | {delta('heldout', 'error_cm', ' cm')} |")
+    return lines if len(lines) > 4 else []
 
 
 if __name__ == "__main__":
