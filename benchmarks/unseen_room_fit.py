@@ -20,7 +20,8 @@ under the spot chosen from the synthetic people and under the room's oracle spot
 (training and test photographs), ``+albedo`` albedo augmentation, ``+eN`` N epochs, ``+pN`` only
 the first N training people (a learning curve on the same render), ``+wdX`` weight decay X, ``+xN``
 the training people of N independent renders of ``--people`` (``data``, ``data-2``, ...; other master
-seeds), validation and held-out people from the first (e.g. ``1 16 16+albedo 16+e120 16+e120+x2``). Each network is also scored on 100 more simulated people of the fit (the
+seeds), validation and held-out people from the first, ``+sN`` training seed ``--seed`` + N (scored
+on the same noise draws) (e.g. ``1 16 16+albedo 16+e120 16+e120+x2 16+e120+x2+s1``). Each network is also scored on 100 more simulated people of the fit (the
 split's test people), a tighter estimate than the room's 30 test people.
 
 Writes ``--out``/room-fit-FIRST-LAST.csv (room, variant, spot, people, posture_accuracy, posture3_accuracy, error_cm,
@@ -73,16 +74,20 @@ class Variant:
     renders: int = 1
     """Training people from this many independent renders of ``--people`` each (the validation and
     held-out people always from the first)."""
+    train_seed: int = 0
+    """Added to ``--seed`` for the training only (weights, batches, training noise); the scores keep
+    ``--seed``'s noise draws, so two training seeds are scored on the same photographs."""
 
     def describe(self) -> str:
         what = f"{self.frames}-frame burst" if self.frames > 1 else "one frame"
         return (what + ", albedo augmentation" * self.albedo + (f", {self.epochs:g} epochs" if self.epochs else "")
                 + (f", weight decay {self.weight_decay:g}" if self.weight_decay is not None else "")
-                + (f", people of {self.renders} renders" if self.renders > 1 else ""))
+                + (f", people of {self.renders} renders" if self.renders > 1 else "")
+                + (f", training seed +{self.train_seed}" if self.train_seed else ""))
 
 
-VARIANT_HELP = ("FRAMES[+albedo][+eEPOCHS][+pPEOPLE][+wdDECAY][+xRENDERS] (e.g. 16+albedo, 16+e120, 16+e120+p1396, "
-                "16+wd1e-3, 16+e120+x2)")
+VARIANT_HELP = ("FRAMES[+albedo][+eEPOCHS][+pPEOPLE][+wdDECAY][+xRENDERS][+sSEED] (e.g. 16+albedo, 16+e120, "
+                "16+e120+p1396, 16+wd1e-3, 16+e120+x2, 16+e120+x2+s1)")
 
 
 def _number(text: str, kind: type) -> float | None:
@@ -95,7 +100,8 @@ def _number(text: str, kind: type) -> float | None:
 
 def parse_variant(spec: str) -> Variant:
     """'16' -> 16 frames a still capture; '+albedo' adds albedo augmentation, '+eN' N epochs, '+pN'
-    only the first N training people, '+wdX' weight decay X (e.g. '16+albedo', '16+e120+p1396')."""
+    only the first N training people, '+wdX' weight decay X, '+xN' people of N renders, '+sN' training
+    seed +N (e.g. '16+albedo', '16+e120+p1396', '16+e120+x2+s1')."""
     frames, *extra = spec.split("+")
     v = Variant(int(frames) if frames.isdigit() else 0, False, None)
     kind = lambda e: e if e == "albedo" else "wd" if e.startswith("wd") else e[:1]
@@ -106,11 +112,11 @@ def parse_variant(spec: str) -> Variant:
         elif e.startswith("wd"):
             v.weight_decay = _number(e[2:], float)
             ok &= v.weight_decay is not None
-        elif e[:1] in ("e", "p", "x"):
+        elif e[:1] in ("e", "p", "x", "s"):
             n = _number(e[1:], float if e[0] == "e" else int)
             ok &= bool(n)
             if n:
-                setattr(v, {"e": "epochs", "p": "people", "x": "renders"}[e[0]], n)
+                setattr(v, {"e": "epochs", "p": "people", "x": "renders", "s": "train_seed"}[e[0]], n)
         else:
             ok = False
     if not ok:
@@ -179,7 +185,7 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: 
     from nlos_spotlight.train.loop import Trainer
 
     v = parse_variant(spec)
-    cfg = seen_config(1, args.seed, noise=True, policy="oracle")
+    cfg = seen_config(1, args.seed + v.train_seed, noise=True, policy="oracle")
     cfg = dataclasses.replace(cfg, sensor={"burst_frames": v.frames} if v.frames > 1 else {}, albedo_augment=v.albedo)
     if v.weight_decay is not None:
         cfg = dataclasses.replace(cfg, weight_decay=v.weight_decay)
@@ -232,7 +238,8 @@ def main() -> None:
     ap.add_argument("--variants", nargs="+", default=["1"], metavar="VARIANT",
                     help="one network per variant on the same people: frames a still capture averages "
                          "(train and test), '+albedo' for albedo augmentation, '+eN' N epochs, '+pN' the first N "
-                         f"training people, '+wdX' weight decay X, '+xN' people of N renders: {VARIANT_HELP}")
+                         f"training people, '+wdX' weight decay X, '+xN' people of N renders, '+sN' training seed "
+                         f"+N: {VARIANT_HELP}")
     ap.add_argument("--also", nargs="*", type=Path, default=[], metavar="CSV",
                     help="earlier fits' room-fit CSVs to summarize beside these (e.g. the committed 1,200-people fits)")
     ap.add_argument("--people", type=int, default=1500, help="synthetic people per room")
