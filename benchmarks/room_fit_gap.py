@@ -22,14 +22,13 @@ prints the per-variant means.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 from pathlib import Path
 
 import numpy as np
 import torch
 
-from unseen_room_fit import parse_variant, run_dir, training_split  # this folder: run as a script
+from unseen_room_fit import parse_variant, run_dir, training_split, write_rows  # this folder: run as a script
 
 COLUMNS = ["room", "variant", "split", "people", "posture_accuracy", "posture3_accuracy", "error_cm"]
 
@@ -82,13 +81,7 @@ def main() -> None:
                 rows += score_room(room, v, args.train_people, args.seed)
     if not rows:
         raise SystemExit(f"{args.fits}: no fitted run of variants {args.variants}")
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.out.with_suffix(".tmp")
-    with tmp.open("w", newline="") as f:
-        w = csv.DictWriter(f, COLUMNS)
-        w.writeheader()
-        w.writerows(rows)
-    tmp.replace(args.out)
+    write_rows(args.out, COLUMNS, rows)
     for v in args.variants:
         for split in ("train", "heldout"):
             r = [x for x in rows if x["variant"] == v and x["split"] == split]

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from unseen_room_fit import run_dir, training_split  # this folder: run as a script
+from unseen_room_fit import run_dir, training_split, write_rows  # this folder: run as a script
 
 COLUMNS = ["room", "variant", "weights", "step", "split", "people", "posture_accuracy", "posture3_accuracy",
            "error_cm"]
@@ -106,13 +106,7 @@ def main() -> None:
                 rows += score_run(args.fits, args.test, room, v, fitted, args.seed)
     if not rows:
         raise SystemExit(f"{args.fits}: no scored run of variants {args.variants}")
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.out.with_suffix(".tmp")
-    with tmp.open("w", newline="") as f:
-        w = csv.DictWriter(f, COLUMNS)
-        w.writeheader()
-        w.writerows(rows)
-    tmp.replace(args.out)
+    write_rows(args.out, COLUMNS, rows)
     for v in args.variants:
         for split in ("heldout", "test"):
             for weights in ("best", "last"):

@@ -138,6 +138,17 @@ def training_split(data: Path):
     return split_room(s, period=10, max_eval=100)
 
 
+def write_rows(path: Path, columns: list[str], rows: list[dict]) -> None:
+    """A CSV written atomically (a killed job leaves the previous file whole)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    with tmp.open("w", newline="") as f:
+        w = csv.DictWriter(f, columns)
+        w.writeheader()
+        w.writerows(rows)
+    tmp.replace(path)
+
+
 def first_seconds(path: Path, t0: float) -> float:
     """Seconds since ``t0`` the first time a step finishes, kept at ``path``: a resumed or rescored
     room reports the time its work took, not the rerun's."""
@@ -272,13 +283,7 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / f"room-fit-{args.first}-{args.first + len(rooms)}.csv"
 
-    def write(rows: list[dict]) -> None:
-        with path.with_suffix(".tmp").open("w", newline="") as f:
-            w = csv.DictWriter(f, COLUMNS)
-            w.writeheader()
-            w.writerows(rows)
-        path.with_suffix(".tmp").replace(path)
-
+    write = lambda rows: write_rows(path, COLUMNS, rows)
     rows = []  # an earlier run's rows of other variants in the same CSV are kept
     if path.exists():
         with path.open(newline="") as f:
