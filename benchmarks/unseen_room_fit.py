@@ -41,12 +41,15 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from nlos_spotlight.errors import NlosError
+
 COLUMNS = ["room", "variant", "spot", "people", "posture_accuracy", "posture3_accuracy", "error_cm", "mean_answer_cm",
            "test_people", "render_s", "train_s"]
 
 
-def room_dataset(test_cfg: dict, room: Path, people: int, transport: int, seed: int):
-    """One training room built on the test room's scene, with the test set's render settings."""
+def room_dataset(test_cfg: dict, room: Path, people: int, transport: int, seed: int, extra_spots=()):
+    """One training room built on the test room's scene, with the test set's render settings
+    (``extra_spots``: candidates its image samples store besides its own choice)."""
     from nlos_spotlight.data.config import DatasetConfig
 
     keep = ("resolution", "los_vertices", "body_faces", "person_samples", "person_quadrature", "pixel_samples",
@@ -54,7 +57,19 @@ def room_dataset(test_cfg: dict, room: Path, people: int, transport: int, seed: 
     return DatasetConfig(name="room-fit", seed=seed, train_scenes=1, val_scenes=0, test_scenes=0,
                          samples_per_scene=people, transport_samples_per_scene=transport,
                          trajectories_per_test_scene=0, trajectories_per_train_scene=0, room=str(room.resolve()),
-                         **{k: test_cfg[k] for k in keep if k in test_cfg})
+                         extra_spots=list(extra_spots), **{k: test_cfg[k] for k in keep if k in test_cfg})
+
+
+def later_render_spots(first: Path, later: Path) -> list[int]:
+    """The spots a further render ('+xN') stores besides its own: the first render's (the spot is
+    chosen on the first render's full-transport people, so every render must hold it); a render
+    begun before this rule keeps what it was begun with."""
+    cfg = later / "config.json"
+    if cfg.exists():
+        return json.loads(cfg.read_text()).get("extra_spots", [])
+    from nlos_spotlight.data.tensors import stored_spots
+
+    return stored_spots(next((first / "scenes").iterdir()))
 
 
 @dataclasses.dataclass
@@ -171,7 +186,8 @@ def fit_room(args, i: int, room: Path, test_cfg: dict, rows: list[dict], write) 
     more = []  # further independent renders of the room's people ('+xN'), their own master seeds
     for r in range(1, max(parse_variant(spec).renders for spec in args.variants)):
         t0 = time.perf_counter()
-        generate(room_dataset(test_cfg, room, args.people, args.transport, 5000 + i + 100_000 * r),
+        spots = later_render_spots(data, out / f"data-{r + 1}")
+        generate(room_dataset(test_cfg, room, args.people, args.transport, 5000 + i + 100_000 * r, spots),
                  out / f"data-{r + 1}", progress=False)
         secs = first_seconds(out / f"render_seconds-{r + 1}.json", t0)
         more.append((training_split(out / f"data-{r + 1}").pool, secs))
@@ -290,7 +306,10 @@ def main() -> None:
             rows = [{"variant": "1", **r} for r in csv.DictReader(f)]
         rows = [r for r in rows if r["variant"] not in args.variants]
     for i, room in enumerate(rooms, args.first):
-        fit_room(args, i, room, test_cfg, rows, write)
+        try:
+            fit_room(args, i, room, test_cfg, rows, write)
+        except NlosError as exc:  # bad or inconsistent data: one line, the finished rooms' rows kept
+            raise SystemExit(f"{room.name}: {exc}") from None
     summary(args)
 
 
