@@ -393,8 +393,19 @@ def people_curve(fits: dict) -> list[str]:
             mean = lambda kind, k: np.mean([float(rows[r, kind][k]) for r in common])
             lines.append(f"| {people} | {mean('fit', 'posture_accuracy'):.1f}% | "
                          f"{mean('heldout', 'posture_accuracy'):.1f}% | {mean('heldout', 'error_cm'):.1f} cm |")
-        lines += people_steps(b, sizes)
+        lines += people_steps(b, sizes) + people_rooms(b, sizes)
     return lines
+
+
+def people_rooms(base: str, sizes: dict) -> list[str]:
+    """Per room, six-way on its test people / on its 100 simulated ones at each training-people size."""
+    held = lambda rows: {r for r, kind in rows if kind == "heldout"}
+    rooms = sorted(set.union(*(held(rows) for rows in sizes.values())))
+    cell = lambda rows, r: (f"{float(rows[r, 'fit']['posture_accuracy']):.1f}% / "
+                            f"{float(rows[r, 'heldout']['posture_accuracy']):.0f}%") if r in held(rows) else ""
+    lines = ["", f"Per room, variant {base}: six-way on the 30 test people / on the 100 simulated ones",
+             "| room | " + " | ".join(f"{p} people" for p in sorted(sizes)) + " |", "|---" * (len(sizes) + 1) + "|"]
+    return lines + [f"| {r} | " + " | ".join(cell(sizes[p], r) for p in sorted(sizes)) + " |" for r in rooms]
 
 
 def people_steps(base: str, sizes: dict) -> list[str]:
