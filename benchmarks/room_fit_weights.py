@@ -15,7 +15,7 @@ draws ``unseen_room_fit.py`` scored with: the best weights' rows reproduce its r
         --variants 16+e120 16+e120+x2 --out docs/results/unseen-room-fit-3000/weights.csv
 
 Writes the CSV (room, variant, weights, step, split, people, posture_accuracy, posture3_accuracy,
-error_cm) and prints the per-variant means.
+error_cm) and prints, per variant, last - best paired by room (``--summary-only``: from the CSV).
 """
 
 from __future__ import annotations
@@ -95,8 +95,12 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0, help="unseen_room_fit.py's --seed")
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--summary-only", action="store_true", help="compare the weights in an existing --out")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
+    if args.summary_only:  # the per-variant comparison of an existing --out
+        with args.out.open() as f:
+            return report(list(csv.DictReader(f)), args.variants)
     fitted = fitted_rows(args.fits)
     rooms = args.rooms or sorted({room for room, _, _ in fitted})
     rows = []
@@ -107,15 +111,24 @@ def main() -> None:
     if not rows:
         raise SystemExit(f"{args.fits}: no scored run of variants {args.variants}")
     write_rows(args.out, COLUMNS, rows)
-    for v in args.variants:
-        for split in ("heldout", "test"):
-            for weights in ("best", "last"):
-                r = [x for x in rows if (x["variant"], x["split"], x["weights"]) == (v, split, weights)]
-                if r:
-                    print(f"{v} {split} {weights}: {len(r)} rooms, six-way "
-                          f"{np.mean([x['posture_accuracy'] for x in r]):.1f}%, error "
-                          f"{np.mean([x['error_cm'] for x in r]):.1f} cm")
+    report(rows, args.variants)
 
+
+def report(rows: list[dict], variants: list[str]) -> None:
+    """Per variant and split: last - best weights, paired by room (mean +- standard error)."""
+    key = {(r["room"], r["variant"], r["weights"], r["split"]): r for r in rows}
+    for v in variants:
+        for split in ("heldout", "test"):
+            rooms = sorted({r["room"] for r in rows if r["variant"] == v and r["split"] == split})
+            if not rooms:
+                continue
+            out = [f"{v} {split}, {len(rooms)} rooms, last - best:"]
+            for k, unit in (("posture_accuracy", " points six-way"), ("error_cm", " cm")):
+                d = np.array([float(key[r, v, "last", split][k]) - float(key[r, v, "best", split][k]) for r in rooms])
+                se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
+                best = np.mean([float(key[r, v, "best", split][k]) for r in rooms])
+                out.append(f"{d.mean():+.1f} +- {se:.1f}{unit} (best {best:.1f})")
+            print(" ".join(out))
 
 if __name__ == "__main__":
     main()
