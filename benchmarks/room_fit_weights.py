@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from unseen_room_fit import run_dir, training_split, write_rows  # this folder: run as a script
+from unseen_room_fit import read_fit_rows, run_dir, static_people, training_split, write_rows  # this folder: run as a script
 
 COLUMNS = ["room", "variant", "weights", "step", "split", "people", "posture_accuracy", "posture3_accuracy",
            "error_cm"]
@@ -38,18 +38,9 @@ def fitted_rows(fits: Path) -> dict:
     """(room, variant, kind) -> the row ``unseen_room_fit.py`` wrote (kind: fit, oracle, heldout)."""
     rows = {}
     for path in sorted(fits.glob("room-fit-*.csv")):
-        with path.open() as f:
-            for r in csv.DictReader(f):
-                rows[r["room"], r.get("variant", "1"), r["spot"].split(":")[0]] = r
+        for r in read_fit_rows(path):
+            rows[r["room"], r["variant"], r["spot"].split(":")[0]] = r
     return rows
-
-
-def test_people(test: Path, room: str):
-    """The test room's static people (those ``unseen_room_fit.py`` scores)."""
-    from nlos_spotlight.data.tensors import load_scene_tensors
-
-    t = load_scene_tensors(test / "scenes" / room, ["normals"], samples="transport")
-    return t.subset(torch.nonzero(t.trajectory[:, 0] < 0).flatten())
 
 
 def score_run(fits: Path, test: Path, room: str, variant: str, fitted: dict, seed: int) -> list[dict]:
@@ -63,7 +54,7 @@ def score_run(fits: Path, test: Path, room: str, variant: str, fitted: dict, see
     split = training_split(fits / room / "data")
     # the net's position standardization is in its weights, so the first render's pool builds it
     tr = Trainer(cfg, [split.pool], run, val_scenes=[split.val])  # writes nothing; scored, not trained
-    people = {"heldout": split.test, "fit": test_people(test, room)}
+    people = {"heldout": split.test, "fit": static_people(test / "scenes" / room)}
     rows = []
     for weights, path in (("best", run / "best.pt"), ("last", run / "checkpoint.pt")):
         tr.load(path)
@@ -129,6 +120,7 @@ def report(rows: list[dict], variants: list[str]) -> None:
                 best = np.mean([float(key[r, v, "best", split][k]) for r in rooms])
                 out.append(f"{d.mean():+.1f} +- {se:.1f}{unit} (best {best:.1f})")
             print(" ".join(out))
+
 
 if __name__ == "__main__":
     main()

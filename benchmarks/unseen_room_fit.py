@@ -164,6 +164,25 @@ def write_rows(path: Path, columns: list[str], rows: list[dict]) -> None:
     tmp.replace(path)
 
 
+def read_fit_rows(path: Path) -> list[dict]:
+    """A room-fit CSV's rows (fits written before --variants: variant '1', one frame, no augmentation)."""
+    with path.open(newline="") as f:
+        return [{"variant": "1", **r} for r in csv.DictReader(f)]
+
+
+def static_people(room: Path):
+    """A test room's static people (those a fitted room is scored on; walkers are left out)."""
+    from nlos_spotlight.data.tensors import load_scene_tensors
+
+    t = load_scene_tensors(room, ["normals"], samples="transport")
+    return t.subset(torch.nonzero(t.trajectory[:, 0] < 0).flatten())
+
+
+def scored_rooms(rows: dict) -> set[str]:
+    """The rooms of one (people, variant)'s rows {(room, kind): row} scored on simulated people."""
+    return {r for r, kind in rows if kind == "heldout"}
+
+
 def first_seconds(path: Path, t0: float) -> float:
     """Seconds since ``t0`` the first time a step finishes, kept at ``path``: a resumed or rescored
     room reports the time its work took, not the rerun's."""
@@ -176,7 +195,6 @@ def fit_room(args, i: int, room: Path, test_cfg: dict, rows: list[dict], write) 
     """Render the room's simulated people, then one network per variant; each variant's rows are
     appended to ``rows`` and written (``write``) as soon as it is scored."""
     from nlos_spotlight.data.generate import generate
-    from nlos_spotlight.data.tensors import load_scene_tensors
 
     out = args.out / room.name
     data = out / "data"
@@ -191,13 +209,11 @@ def fit_room(args, i: int, room: Path, test_cfg: dict, rows: list[dict], write) 
                  out / f"data-{r + 1}", progress=False)
         secs = first_seconds(out / f"render_seconds-{r + 1}.json", t0)
         more.append((training_split(out / f"data-{r + 1}").pool, secs))
-    test = load_scene_tensors(room, ["normals"], samples="transport")
+    test = static_people(room)
     fit_aims = np.load(next((data / "scenes").iterdir()) / "static.npz")["aim_points"]
     if not np.allclose(fit_aims, np.load(room / "static.npz")["aim_points"], atol=1e-6):
         raise SystemExit(f"{room.name}: the fitted room's candidate spots differ from the test room's")
     split = training_split(data)
-    static = torch.nonzero(test.trajectory[:, 0] < 0).flatten()
-    test = test.subset(static)
     for spec in args.variants:
         rows += fit_variant(args, out, spec, split, test, render_s, more)
         write(rows)
@@ -302,9 +318,7 @@ def main() -> None:
     write = lambda rows: write_rows(path, COLUMNS, rows)
     rows = []  # an earlier run's rows of other variants in the same CSV are kept
     if path.exists():
-        with path.open(newline="") as f:
-            rows = [{"variant": "1", **r} for r in csv.DictReader(f)]
-        rows = [r for r in rows if r["variant"] not in args.variants]
+        rows = [r for r in read_fit_rows(path) if r["variant"] not in args.variants]
     for i, room in enumerate(rooms, args.first):
         try:
             fit_room(args, i, room, test_cfg, rows, write)
@@ -319,14 +333,12 @@ def summary(args) -> None:
     (``--compare``) and the ideal observer (``--ceiling``) on the same rooms' static people."""
     fits, own = {}, set()
     for path in sorted(args.out.glob("room-fit-*.csv")) + list(args.also):
-        with path.open() as f:
-            for r in csv.DictReader(f):
-                if path.parent == args.out:
-                    own.add(r["room"])
-                elif own and r["room"] not in own:
-                    continue  # --also: only the rooms fitted here, so that every line has the same rooms
-                r.setdefault("variant", "1")  # fits written before --variants: one frame, no augmentation
-                fits.setdefault((int(r["people"]), r["variant"]), {})[r["room"], r["spot"].split(":")[0]] = r
+        for r in read_fit_rows(path):
+            if path.parent == args.out:
+                own.add(r["room"])
+            elif own and r["room"] not in own:
+                continue  # --also: only the rooms fitted here, so that every line has the same rooms
+            fits.setdefault((int(r["people"]), r["variant"]), {})[r["room"], r["spot"].split(":")[0]] = r
     rooms = sorted({room for rows in fits.values() for room, _ in rows})
     index = [int(r.split("-")[-1]) for r in rooms]
     lines = [f"{len(rooms)} test rooms ({', '.join(rooms)}), static people; one frame unless stated; last column: "
@@ -382,8 +394,7 @@ def people_curve(fits: dict) -> list[str]:
         curves.setdefault(base(variant), {})[people] = rows
     lines = []
     for b, sizes in sorted(curves.items()):
-        held = lambda rows: {r for r, kind in rows if kind == "heldout"}
-        common = sorted(set.intersection(*(held(rows) for rows in sizes.values())))
+        common = sorted(set.intersection(*(scored_rooms(rows) for rows in sizes.values())))
         if len(sizes) < 2 or not common:
             continue
         lines += ["", f"Training people, variant {b} (+pN: the first N people of the render, +xN: N renders), "
@@ -399,10 +410,9 @@ def people_curve(fits: dict) -> list[str]:
 
 def people_rooms(base: str, sizes: dict) -> list[str]:
     """Per room, six-way on its test people / on its 100 simulated ones at each training-people size."""
-    held = lambda rows: {r for r, kind in rows if kind == "heldout"}
-    rooms = sorted(set.union(*(held(rows) for rows in sizes.values())))
+    rooms = sorted(set.union(*(scored_rooms(rows) for rows in sizes.values())))
     cell = lambda rows, r: (f"{float(rows[r, 'fit']['posture_accuracy']):.1f}% / "
-                            f"{float(rows[r, 'heldout']['posture_accuracy']):.0f}%") if r in held(rows) else ""
+                            f"{float(rows[r, 'heldout']['posture_accuracy']):.0f}%") if r in scored_rooms(rows) else ""
     lines = ["", f"Per room, variant {base}: six-way on the 30 test people / on the 100 simulated ones",
              "| room | " + " | ".join(f"{p} people" for p in sorted(sizes)) + " |", "|---" * (len(sizes) + 1) + "|"]
     return lines + [f"| {r} | " + " | ".join(cell(sizes[p], r) for p in sorted(sizes)) + " |" for r in rooms]
@@ -411,24 +421,26 @@ def people_rooms(base: str, sizes: dict) -> list[str]:
 def people_steps(base: str, sizes: dict) -> list[str]:
     """Each step of the people curve on every room fitted at both sizes (more rooms than the rooms
     fitted at every size): the paired change, so that rooms do not confound people."""
-    held = lambda rows: {r for r, kind in rows if kind == "heldout"}
     lines = ["", f"Each step, variant {base}, on the rooms fitted at both sizes (paired change, mean +- "
              "standard error over the rooms):",
              "| training people | rooms | six-way (test) | six-way (simulated) | error (simulated) |",
              "|---|---|---|---|---|"]
     steps = sorted(sizes)
     for a, b in zip(steps, steps[1:]):
-        common = sorted(held(sizes[a]) & held(sizes[b]))
+        common = sorted(scored_rooms(sizes[a]) & scored_rooms(sizes[b]))
         if not common:
             continue
-        def delta(kind: str, k: str, unit: str = "") -> str:  # mean +- standard error over the rooms
-            d = np.array([float(sizes[b][r, kind][k]) - float(sizes[a][r, kind][k]) for r in common])
-            se = f" +- {d.std(ddof=1) / np.sqrt(len(d)):.1f}" if len(d) > 1 else ""
-            return f"{d.mean():+.1f}{se}{unit}"
-
+        delta = lambda kind, k, unit="": paired_change(sizes[a], sizes[b], common, kind, k) + unit
         lines.append(f"| {a} -> {b} | {len(common)} | {delta('fit', 'posture_accuracy')} | "
                      f"{delta('heldout', 'posture_accuracy')} | {delta('heldout', 'error_cm', ' cm')} |")
     return lines if len(lines) > 4 else []
+
+
+def paired_change(before: dict, after: dict, rooms: list[str], kind: str, key: str) -> str:
+    """after - before of ``key`` on ``rooms``: mean +- standard error over the rooms."""
+    d = np.array([float(after[r, kind][key]) - float(before[r, kind][key]) for r in rooms])
+    se = f" +- {d.std(ddof=1) / np.sqrt(len(d)):.1f}" if len(d) > 1 else ""
+    return f"{d.mean():+.1f}{se}"
 
 
 if __name__ == "__main__":
