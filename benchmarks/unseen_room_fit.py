@@ -343,8 +343,9 @@ def summary(args) -> None:
     index = [int(r.split("-")[-1]) for r in rooms]
     lines = [f"{len(rooms)} test rooms ({', '.join(rooms)}), static people; one frame unless stated; last column: "
              "the same networks on 100 more simulated people a room (where scored)",
-             "| method | rooms | six-way | upright/sitting/crouching | error | mean answer | six-way, simulated |",
-             "|---|---|---|---|---|---|---|"]
+             "| method | rooms | six-way | six-way, 95% interval over rooms | upright/sitting/crouching | error | "
+             "mean answer | six-way, simulated |",
+             "|---|---|---|---|---|---|---|---|"]
     for (people, variant), rows in sorted(fits.items()):
         done = sorted({room for room, kind in rows if kind == "fit"})
         fit = [rows[r, "fit"] for r in done]
@@ -352,7 +353,8 @@ def summary(args) -> None:
         held = [float(rows[r, "heldout"]["posture_accuracy"]) for r in done if (r, "heldout") in rows]
         held = f"{np.mean(held):.1f}% ({len(held)} rooms)" if held else ""
         lines.append(f"| fitted in the room: {people} training people, {parse_variant(variant).describe()} | "
-                     f"{len(done)} | {mean('posture_accuracy'):.1f}% | {mean('posture3_accuracy'):.1f}% | "
+                     f"{len(done)} | {mean('posture_accuracy'):.1f}% | "
+                     f"{room_interval([float(r['posture_accuracy']) for r in fit])} | {mean('posture3_accuracy'):.1f}% | "
                      f"{mean('error_cm'):.1f} cm | {mean('mean_answer_cm'):.1f} cm | {held} |")
     for spec in args.compare:
         name, path = spec.split("=", 1)
@@ -362,7 +364,7 @@ def summary(args) -> None:
             from nlos_spotlight.evaluate.seen import GROUP_OF
 
             err = 100 * np.linalg.norm(z["pred_xy"][keep] - z["true_xy"][keep], axis=1).mean()
-            lines.append(f"| {name} | {len(rooms)} | {100 * np.mean(t == q):.1f}% | "
+            lines.append(f"| {name} | {len(rooms)} | {100 * np.mean(t == q):.1f}% | | "
                          f"{100 * np.mean(GROUP_OF[t] == GROUP_OF[q]):.1f}% | {err:.1f} cm | | |")
     if args.ceiling and args.ceiling.exists():
         import re
@@ -372,7 +374,7 @@ def summary(args) -> None:
             acc = [float(m.group(2)) for m in re.finditer(
                 rf"room (test-\d+) person \d+:.*? {frames} frame\(s\) \d+% / (\d+)%", text) if m.group(1) in rooms]
             lines.append(f"| ideal observer, nuisances fitted, {frames} frame(s) ({len(acc)} people) | {len(rooms)} | "
-                         f"{np.mean(acc):.1f}% | | | | |")
+                         f"{np.mean(acc):.1f}% | | | | | |")
     for (people, variant), rows in sorted(fits.items()):
         done = sorted({room for room, kind in rows if kind == "fit"})
         same = sum(rows[r, "fit"]["spot"].split(":")[1] == rows[r, "oracle"]["spot"].split(":")[1] for r in done)
@@ -383,6 +385,19 @@ def summary(args) -> None:
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "summary.md").write_text(text + "\n")
+
+
+def room_interval(accuracy: list[float]) -> str:
+    """95% interval of the mean over rooms (Student's t on the per-room accuracies): the rooms are a
+    sample of the test set's layouts, so this holds room-to-room spread and each room's people
+    together, where a binomial interval on the pooled people holds the people only."""
+    if len(accuracy) < 2:
+        return ""
+    from scipy import stats
+
+    a = np.asarray(accuracy)
+    half = stats.t.ppf(0.975, len(a) - 1) * a.std(ddof=1) / np.sqrt(len(a))
+    return f"{max(a.mean() - half, 0):.1f}-{min(a.mean() + half, 100):.1f}%"
 
 
 def people_curve(fits: dict) -> list[str]:
