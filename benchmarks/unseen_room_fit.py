@@ -298,6 +298,8 @@ def main() -> None:
     ap.add_argument("--ceiling", type=Path, default=Path("docs/results/posture-ceiling-unseen.txt"),
                     help="posture_separability.py --split test's output: the ideal observer per person")
     ap.add_argument("--summary-only", action="store_true", help="only the summary of the rooms fitted so far")
+    ap.add_argument("--pair", nargs=2, action="append", default=[], metavar=("BASE", "OTHER"),
+                    help="summary: OTHER - BASE paired by room on the rooms fitted with both variants (repeatable)")
     args = ap.parse_args()
     if args.summary_only:
         return summary(args)
@@ -380,7 +382,7 @@ def summary(args) -> None:
         same = sum(rows[r, "fit"]["spot"].split(":")[1] == rows[r, "oracle"]["spot"].split(":")[1] for r in done)
         lines.append(f"{people} people, variant {variant}: the spot chosen from the simulated people is the test "
                      f"people's oracle in {same} of {len(done)} rooms.")
-    lines += people_curve(fits)
+    lines += people_curve(fits) + variant_pairs(fits, args.pair)
     text = "\n".join(lines)
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)
@@ -449,6 +451,26 @@ def people_steps(base: str, sizes: dict) -> list[str]:
         lines.append(f"| {a} -> {b} | {len(common)} | {delta('fit', 'posture_accuracy')} | "
                      f"{delta('heldout', 'posture_accuracy')} | {delta('heldout', 'error_cm', ' cm')} |")
     return lines if len(lines) > 4 else []
+
+
+def variant_pairs(fits: dict, pairs: list) -> list[str]:
+    """``--pair BASE OTHER``: OTHER - BASE on the rooms scored with both (a variant named by several
+    people counts, e.g. '1' of the 1,200- and 3,000-people fits: the one sharing the most rooms)."""
+    lines = []
+    for base, other in pairs:
+        keys = lambda v: [k for k in fits if k[1] == v]
+        common = lambda a, b: scored_rooms(fits[a]) & scored_rooms(fits[b])
+        best = max(((a, b) for a in keys(base) for b in keys(other)), key=lambda ab: len(common(*ab)), default=None)
+        if best is None or not common(*best):
+            raise SystemExit(f"--pair {base} {other}: no room scored with both variants")
+        rooms = sorted(common(*best))
+        delta = lambda kind, k, unit="": paired_change(fits[best[0]], fits[best[1]], rooms, kind, k) + unit
+        lines += ["", f"{other} - {base} on the {len(rooms)} rooms scored with both ({', '.join(rooms)}; paired "
+                      "change, mean +- standard error over the rooms):",
+                  "| six-way (test) | six-way (simulated) | error (test) | error (simulated) |", "|---|---|---|---|",
+                  f"| {delta('fit', 'posture_accuracy')} | {delta('heldout', 'posture_accuracy')} | "
+                  f"{delta('fit', 'error_cm', ' cm')} | {delta('heldout', 'error_cm', ' cm')} |"]
+    return lines
 
 
 def paired_change(before: dict, after: dict, rooms: list[str], kind: str, key: str) -> str:
