@@ -276,7 +276,9 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--test", type=Path, required=True, help="test dataset (unseen-test.yaml)")
-    ap.add_argument("--rooms", type=int, default=6, help="ROOMS test rooms from --first (by index, each finished)")
+    ap.add_argument("--rooms", type=int, default=None,
+                    help="ROOMS test rooms from --first (by index, each finished; default 6); with --summary-only, "
+                         "only these rooms (default: every fitted room)")
     ap.add_argument("--first", type=int, default=0, help="start at this test room")
     ap.add_argument("--variants", nargs="+", default=["1"], metavar="VARIANT",
                     help="one network per variant on the same people: frames a still capture averages "
@@ -309,7 +311,7 @@ def main() -> None:
     for spec in args.variants:
         parse_variant(spec)
     test_cfg = json.loads((args.test / "config.json").read_text())
-    rooms = [args.test / "scenes" / scene_id("test", i) for i in range(args.first, args.first + args.rooms)]
+    rooms = [args.test / "scenes" / scene_id("test", i) for i in range(args.first, args.first + (args.rooms or 6))]
     for room in rooms:  # by index, so that workers on disjoint rooms can start before all are generated
         if not (room / "done.json").exists():
             raise SystemExit(f"{room}: not generated (nlos generate CONFIG --out {args.test} --shard I/N, "
@@ -336,6 +338,8 @@ def summary(args) -> None:
     fits, own = {}, set()
     for path in sorted(args.out.glob("room-fit-*.csv")) + list(args.also):
         for r in read_fit_rows(path):
+            if args.rooms is not None and not args.first <= int(r["room"].split("-")[-1]) < args.first + args.rooms:
+                continue
             if path.parent == args.out:
                 own.add(r["room"])
             elif own and r["room"] not in own:
