@@ -21,8 +21,11 @@ under the spot chosen from the synthetic people and under the room's oracle spot
 the first N training people (a learning curve on the same render), ``+wdX`` weight decay X, ``+xN``
 the training people of N independent renders of ``--people`` (``data``, ``data-2``, ...; other master
 seeds), validation and held-out people from the first, ``+sN`` training seed ``--seed`` + N (scored
-on the same noise draws) (e.g. ``1 16 16+albedo 16+e120 16+e120+x2 16+e120+x2+s1``). Each network is also scored on 100 more simulated people of the fit (the
-split's test people), a tighter estimate than the room's 30 test people.
+on the same noise draws), ``+init`` the weights and input of ``--init``, a network trained on other
+fitted rooms (``fitted_rooms_transfer.py``; refused if it trained in this room) (e.g. ``1 16
+16+albedo 16+e120 16+e120+x2 16+e120+x2+s1 16+e120+init``). Each network is also scored on 100
+more simulated people of the fit (the split's test people), a tighter estimate than the room's 30
+test people.
 
 Writes ``--out``/room-fit-FIRST-LAST.csv (room, variant, spot, people, posture_accuracy, posture3_accuracy, error_cm,
 mean_answer_cm, test_people, render_s, train_s) and per room its data, run and predictions.
@@ -92,17 +95,21 @@ class Variant:
     train_seed: int = 0
     """Added to ``--seed`` for the training only (weights, batches, training noise); the scores keep
     ``--seed``'s noise draws, so two training seeds are scored on the same photographs."""
+    init: bool = False
+    """Start from ``--init``'s weights and input (a network trained in other rooms,
+    ``fitted_rooms_transfer.py``) instead of random weights."""
 
     def describe(self) -> str:
         what = f"{self.frames}-frame burst" if self.frames > 1 else "one frame"
         return (what + ", albedo augmentation" * self.albedo + (f", {self.epochs:g} epochs" if self.epochs else "")
                 + (f", weight decay {self.weight_decay:g}" if self.weight_decay is not None else "")
                 + (f", people of {self.renders} renders" if self.renders > 1 else "")
-                + (f", training seed +{self.train_seed}" if self.train_seed else ""))
+                + (f", training seed +{self.train_seed}" if self.train_seed else "")
+                + (", started from a network of other rooms" if self.init else ""))
 
 
-VARIANT_HELP = ("FRAMES[+albedo][+eEPOCHS][+pPEOPLE][+wdDECAY][+xRENDERS][+sSEED] (e.g. 16+albedo, 16+e120, "
-                "16+e120+p1396, 16+wd1e-3, 16+e120+x2, 16+e120+x2+s1)")
+VARIANT_HELP = ("FRAMES[+albedo][+eEPOCHS][+pPEOPLE][+wdDECAY][+xRENDERS][+sSEED][+init] (e.g. 16+albedo, "
+                "16+e120, 16+e120+p1396, 16+wd1e-3, 16+e120+x2, 16+e120+x2+s1, 16+e120+init)")
 
 
 def _number(text: str, kind: type) -> float | None:
@@ -116,14 +123,16 @@ def _number(text: str, kind: type) -> float | None:
 def parse_variant(spec: str) -> Variant:
     """'16' -> 16 frames a still capture; '+albedo' adds albedo augmentation, '+eN' N epochs, '+pN'
     only the first N training people, '+wdX' weight decay X, '+xN' people of N renders, '+sN' training
-    seed +N (e.g. '16+albedo', '16+e120+p1396', '16+e120+x2+s1')."""
+    seed +N, '+init' the weights of ``--init`` (e.g. '16+albedo', '16+e120+p1396', '16+e120+x2+s1')."""
     frames, *extra = spec.split("+")
     v = Variant(int(frames) if frames.isdigit() else 0, False, None)
-    kind = lambda e: e if e == "albedo" else "wd" if e.startswith("wd") else e[:1]
+    kind = lambda e: e if e in ("albedo", "init") else "wd" if e.startswith("wd") else e[:1]
     ok = v.frames >= 1 and len({kind(e) for e in extra}) == len(extra)  # each option at most once
     for e in extra:
         if e == "albedo":
             v.albedo = True
+        elif e == "init":
+            v.init = True
         elif e.startswith("wd"):
             v.weight_decay = _number(e[2:], float)
             ok &= v.weight_decay is not None
@@ -219,6 +228,22 @@ def fit_room(args, i: int, room: Path, test_cfg: dict, rows: list[dict], write) 
         write(rows)
 
 
+def initial_weights(args, room: str) -> dict:
+    """``--init``'s checkpoint for a '+init' variant, refused where its network trained in ``room``
+    (its run's config.json lists ``train_rooms``): the point is weights from other rooms."""
+    if args.init is None:
+        raise SystemExit("--variants ...+init: give --init BEST_PT (fitted_rooms_transfer.py's run/best.pt)")
+    cfg = args.init.parent / "config.json"
+    if not cfg.exists():
+        raise SystemExit(f"--init {args.init}: no config.json beside it to say which rooms it trained in")
+    if room in json.loads(cfg.read_text()).get("train_rooms", []):
+        raise SystemExit(f"--init {args.init}: that network trained in {room}; start {room} from one that did not")
+    try:
+        return torch.load(args.init, map_location="cpu", weights_only=False)
+    except Exception as exc:  # torch raises many types on torn or foreign files
+        raise SystemExit(f"--init {args.init}: corrupted or not a checkpoint ({type(exc).__name__})") from None
+
+
 def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: list) -> list[dict]:
     """One network for the room's simulated people with the capture and augmentation of ``spec``,
     scored on the room's test people under the fitted spot and the test people's oracle spot."""
@@ -232,6 +257,9 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: 
     cfg = dataclasses.replace(cfg, sensor={"burst_frames": v.frames} if v.frames > 1 else {}, albedo_augment=v.albedo)
     if v.weight_decay is not None:
         cfg = dataclasses.replace(cfg, weight_decay=v.weight_decay)
+    init = initial_weights(args, Path(test.scene_dir).name) if v.init else None
+    if init is not None:  # the other rooms' network's input (geometry-aware or not) comes with its weights
+        cfg = dataclasses.replace(cfg, net=dataclasses.replace(cfg.net, **init["config"]["net"]))
     if v.people is not None:
         if v.people > split.pool.num_samples:
             raise SystemExit(f"--variants {spec}: the room has only {split.pool.num_samples} training people")
@@ -247,10 +275,13 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: 
                               select=args.select)
     t1 = time.perf_counter()
     run.mkdir(parents=True, exist_ok=True)
-    (run / "config.json").write_text(json.dumps({"train": cfg.to_dict(), "variant": spec}, indent=1))
+    (run / "config.json").write_text(json.dumps({"train": cfg.to_dict(), "variant": spec,
+                                                 "init": str(args.init) if v.init else None}, indent=1))
     tr = Trainer(cfg, [split.pool], run, val_scenes=[split.val])
     if (run / "checkpoint.pt").exists():
         tr.load(run / "checkpoint.pt")
+    elif init is not None:
+        tr.net.load_state_dict(init["net"])
     train_validated(tr, run)
     train_s = first_seconds(run / "train_seconds.json", t1)  # a rescored run reports its training
     (y, _, _), = tr.illuminations([tr.scenes[0]], train=False)
@@ -284,7 +315,9 @@ def main() -> None:
                     help="one network per variant on the same people: frames a still capture averages "
                          "(train and test), '+albedo' for albedo augmentation, '+eN' N epochs, '+pN' the first N "
                          f"training people, '+wdX' weight decay X, '+xN' people of N renders, '+sN' training seed "
-                         f"+N: {VARIANT_HELP}")
+                         f"+N, '+init' start from --init's weights: {VARIANT_HELP}")
+    ap.add_argument("--init", type=Path, default=None, metavar="BEST_PT",
+                    help="'+init' variants start from this checkpoint (a network of other rooms)")
     ap.add_argument("--also", nargs="*", type=Path, default=[], metavar="CSV",
                     help="earlier fits' room-fit CSVs to summarize beside these (e.g. the committed 1,200-people fits)")
     ap.add_argument("--people", type=int, default=1500, help="synthetic people per room")
@@ -316,6 +349,8 @@ def main() -> None:
         if not (room / "done.json").exists():
             raise SystemExit(f"{room}: not generated (nlos generate CONFIG --out {args.test} --shard I/N, "
                              "I its scene index)")
+        if any(parse_variant(spec).init for spec in args.variants):
+            initial_weights(args, room.name)  # refused before any rendering
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / f"room-fit-{args.first}-{args.first + len(rooms)}.csv"
 
