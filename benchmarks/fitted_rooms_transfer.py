@@ -42,7 +42,8 @@ import numpy as np
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from unseen_room_fit import first_seconds, room_interval, static_people, training_split, write_rows  # noqa: E402
+from unseen_room_fit import (first_seconds, read_fit_rows, room_interval, static_people, training_split,  # noqa: E402
+                             write_rows)
 
 from nlos_spotlight.errors import NlosError  # noqa: E402
 
@@ -61,14 +62,15 @@ def room_range(text: str) -> list[int]:
         raise SystemExit(f"expected rooms as A-B or A,B,C, got {text!r}") from None
 
 
-def fitted_spot(fits: Path, room: str, variant: str) -> int:
-    """The spot the room's fit chose from its own simulated people (its CSV's ``fit:`` row)."""
+def fit_rows(fits: Path, variant: str) -> dict:
+    """{(room, kind): row} of the per-room fits of ``variant`` (kind 'test' or 'simulated')."""
+    out = {}
     for path in sorted(fits.glob("room-fit-*.csv")):
-        with path.open(newline="") as f:
-            for r in csv.DictReader(f):
-                if r["room"] == room and r.get("variant", "1") == variant and r["spot"].startswith("fit:"):
-                    return int(r["spot"].split(":")[1])
-    raise SystemExit(f"{fits}: no fit of {room} with variant {variant} (unseen_room_fit.py first)")
+        for r in read_fit_rows(path):
+            kind = {"fit": "test", "heldout": "simulated"}.get(r["spot"].split(":")[0])
+            if r["variant"] == variant and kind:
+                out[r["room"], kind] = r
+    return out
 
 
 @dataclasses.dataclass
@@ -84,26 +86,31 @@ class FittedRoom:
     """Face index of the fit's spot."""
 
 
-def load_room(args, i: int) -> FittedRoom:
-    """Room ``i``'s renders (``--renders`` of them pooled for training) and its test people."""
+def load_room(args, i: int, fits: dict, renders: int) -> FittedRoom:
+    """Room ``i``'s renders (``renders`` of them pooled for training), its test people and the spot
+    its fit chose from its own simulated people (``fits``: :func:`fit_rows`, its ``fit:`` row)."""
     from nlos_spotlight.data.store import scene_id
 
     name = scene_id("test", i)
+    if (name, "test") not in fits:
+        raise SystemExit(f"{args.fits}: no fit of {name} with variant {args.compare} (unseen_room_fit.py first)")
     out = args.fits / name
     split = training_split(out / "data")
-    for r in range(2, args.renders + 1):
+    for r in range(2, renders + 1):
         if not (out / f"data-{r}" / "manifest.json").exists():
             raise SystemExit(f"{out}/data-{r}: not rendered (unseen_room_fit.py --variants 16+e120+x{r})")
         split = dataclasses.replace(split, pool=split.pool.concat(training_split(out / f"data-{r}").pool))
     return FittedRoom(name, split, static_people(args.test / "scenes" / name),
-                      fitted_spot(args.fits, name, args.compare))
+                      int(fits[name, "test"]["spot"].split(":")[1]))
 
 
-def train_config(args, rooms: int, steps: int):
-    """The per-room fits' recipe (``unseen_room_fit.py`` variant 16+e120), every batch mixing the rooms."""
+def train_config(args, rooms: int, people: int):
+    """The per-room fits' recipe (``unseen_room_fit.py`` variant 16+e120), every batch mixing the
+    rooms; ``--steps``, or ``--epochs`` passes over the ``people``."""
     from nlos_spotlight.evaluate.seen import seen_config
 
     cfg = seen_config(rooms, args.seed, noise=True, policy="oracle")
+    steps = args.steps or max(1, round(args.epochs * people / cfg.batch_size))
     every = max(1, steps // 25)
     return dataclasses.replace(cfg, sensor={"burst_frames": args.frames}, steps=steps, eval_every=every,
                                ckpt_every=every, log_every=every, select="metrics",
@@ -117,8 +124,7 @@ def train(args, rooms: list[FittedRoom]):
     from nlos_spotlight.train.loop import Trainer
 
     people = sum(r.split.pool.num_samples for r in rooms)
-    steps = args.steps or max(1, round(args.epochs * people / 64))
-    cfg = train_config(args, len(rooms), steps)
+    cfg = train_config(args, len(rooms), people)
     run = args.out / "run"
     run.mkdir(parents=True, exist_ok=True)
     (run / "config.json").write_text(json.dumps({"train": cfg.to_dict(), "train_rooms": [r.name for r in rooms],
@@ -133,12 +139,12 @@ def train(args, rooms: list[FittedRoom]):
     return tr, first_seconds(run / "train_seconds.json", t0), people
 
 
-def score(args, tr, room: FittedRoom, role: str, people: int, train_s: float) -> list[dict]:
-    """The room's test and held-out simulated people under its fitted spot, the fits' noise draws."""
+def score(args, tr, room: FittedRoom, role: str, people: int, train_s: float, mean: torch.Tensor) -> list[dict]:
+    """The room's test and held-out simulated people under its fitted spot, the fits' noise draws;
+    ``mean`` (2,): the training people's mean position (the mean answer)."""
     from nlos_spotlight.evaluate.seen import score_rooms
 
     y = torch.nn.functional.one_hot(torch.tensor(room.spot), len(room.test.faces)).float()
-    mean = torch.cat([s.pool.target for s in args.train_splits]).mean(0)
     rows = []
     for kind, group in (("test", room.test), ("simulated", room.split.test)):
         res = score_rooms(tr.net, tr.cfg.net, tr.sensor, [group], [(y, "spot")], True, args.seed)
@@ -177,30 +183,19 @@ def main() -> None:
     if set(train_ids) & set(eval_ids):
         raise SystemExit("--train-rooms and --eval-rooms overlap: the unseen rooms must be new to the network")
     try:
-        train_rooms = [load_room(args, i) for i in train_ids]
-        args.train_splits = [r.split for r in train_rooms]
+        fits = fit_rows(args.fits, args.compare)
+        train_rooms = [load_room(args, i, fits, args.renders) for i in train_ids]
+        mean = torch.cat([r.split.pool.target for r in train_rooms]).mean(0)
         tr, train_s, people = train(args, train_rooms)
         rows = []
         for role, ids, loaded in (("seen", train_ids, train_rooms), ("unseen", eval_ids, None)):
             for k, i in enumerate(ids):
-                room = loaded[k] if loaded else load_room(argparse.Namespace(**{**vars(args), "renders": 1}), i)
-                rows += score(args, tr, room, role, people, train_s)
+                room = loaded[k] if loaded else load_room(args, i, fits, renders=1)  # scored people: first render
+                rows += score(args, tr, room, role, people, train_s, mean)
                 write_rows(args.out / "transfer.csv", COLUMNS, rows)
     except NlosError as exc:
         raise SystemExit(str(exc)) from None
     summary(args)
-
-
-def fit_rows(fits: Path, variant: str) -> dict:
-    """{(room, kind): row} of the per-room fits of ``variant`` (kind 'test' or 'simulated')."""
-    out = {}
-    for path in sorted(fits.glob("room-fit-*.csv")):
-        with path.open(newline="") as f:
-            for r in csv.DictReader(f):
-                kind = {"fit": "test", "heldout": "simulated"}.get(r["spot"].split(":")[0])
-                if r.get("variant", "1") == variant and kind:
-                    out[r["room"], kind] = r
-    return out
 
 
 def summary(args) -> None:

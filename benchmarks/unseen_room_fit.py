@@ -228,9 +228,10 @@ def fit_room(args, i: int, room: Path, test_cfg: dict, rows: list[dict], write) 
         write(rows)
 
 
-def initial_weights(args, room: str) -> dict:
-    """``--init``'s checkpoint for a '+init' variant, refused where its network trained in ``room``
-    (its run's config.json lists ``train_rooms``): the point is weights from other rooms."""
+def refuse_init(args, room: str) -> None:
+    """SystemExit where a '+init' variant cannot start ``room`` from ``--init``: none given, or its
+    network trained in ``room`` (its run's config.json lists ``train_rooms``): the point is weights
+    from other rooms."""
     if args.init is None:
         raise SystemExit("--variants ...+init: give --init BEST_PT (fitted_rooms_transfer.py's run/best.pt)")
     cfg = args.init.parent / "config.json"
@@ -238,6 +239,11 @@ def initial_weights(args, room: str) -> dict:
         raise SystemExit(f"--init {args.init}: no config.json beside it to say which rooms it trained in")
     if room in json.loads(cfg.read_text()).get("train_rooms", []):
         raise SystemExit(f"--init {args.init}: that network trained in {room}; start {room} from one that did not")
+
+
+def initial_weights(args, room: str) -> dict:
+    """``--init``'s checkpoint for a '+init' variant in ``room`` (:func:`refuse_init`)."""
+    refuse_init(args, room)
     try:
         return torch.load(args.init, map_location="cpu", weights_only=False)
     except Exception as exc:  # torch raises many types on torn or foreign files
@@ -350,7 +356,7 @@ def main() -> None:
             raise SystemExit(f"{room}: not generated (nlos generate CONFIG --out {args.test} --shard I/N, "
                              "I its scene index)")
         if any(parse_variant(spec).init for spec in args.variants):
-            initial_weights(args, room.name)  # refused before any rendering
+            refuse_init(args, room.name)  # before any rendering
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / f"room-fit-{args.first}-{args.first + len(rooms)}.csv"
 
