@@ -1,0 +1,283 @@
+"""Posture by analysis by synthesis: render the six postures in the room's scan, keep the nearest.
+
+The per-room fit (``unseen_room_fit.py``) learns a room's light transport from thousands of people
+rendered in its scan; the ideal observer (``posture_separability.py``) says the photograph holds
+posture. This reads posture with no training at all: for each test photograph, the person's light
+(photograph minus empty-room photograph, both noisy) is compared with the six postures' light
+rendered in the room's scan under the same spot, and the posture whose rendering fits best (chi^2
+whitened by the photographs' noise, clipped pixels left out) is the answer.
+
+The clothing albedo is always fitted, exactly: the renderer's person light is affine in the
+albedo a per channel, L(a) = a N + (1 - a) Q (the projector's light on the body N, and Q the
+ambient light it hides; ``train.imaging.albedo_factors``), so one render gives both and a is a
+clipped weighted least-squares fit per channel. What else the renders are told, ``--know``:
+
+* ``body``: the person's own build, pose variant, height, facing and place (only posture and
+  albedo unknown): a control. Its chi^2 at the true posture should be about the pixel count
+  (the photograph's noise), its accuracy near the ideal observer's "everything known".
+* ``place``: the true floor position, facing and height; the body is the library's mean build at
+  pose variant 0: what a body model that does not know the person costs.
+* ``position``: the true floor point only; per posture the facing is scanned over ``--facings``
+  directions, then facing and height are fitted (``evaluate.synthesis.refine``).
+* ``none``: nothing but the room: the place too (``evaluate.synthesis.read_photograph``: a coarse
+  bank over the floor, then the same per posture with all four fitted). Also scores the place.
+
+The searches render a coarser body (``--search-faces``) and score each posture's fit with the test
+people's own body resolution.
+
+Photographs are exactly those the per-room fits were scored on: the room's 30 static test people,
+the fit's spot (``--fits``' CSV row of ``--variant``), the 16-frame still capture and the noise
+draws of ``evaluate.seen.score_rooms`` (seed 20,000 + ``--seed``). Prints per room and writes
+``--out``/synthesis-FIRST-LAST.csv (room, level, people, six-way and three-way accuracy, the fit's
+accuracy and error on the same photographs with ``--fit-runs``, median chi^2 per pixel at the true
+posture and at the answer, the place error, renders, seconds; resumable per room and level) and
+per-person predictions.
+
+    python benchmarks/synthesis_posture.py --test out/unseen/test --rooms 0-11 --know body place \
+        --fit-runs out/unseen/room-fit-3000 --out out/unseen/synthesis
+    python benchmarks/synthesis_posture.py --test out/unseen/test --rooms 0-11 --know position none \
+        --people 15 --fit-runs out/unseen/room-fit-3000 --out out/unseen/synthesis
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from nlos_spotlight.evaluate.synthesis import (Bank, Synthesizer, albedo_fit, floor_cells, mean_body,
+                                               read_photograph)
+
+COLUMNS = ["room", "know", "spot", "people", "accuracy", "accuracy3", "fit_accuracy", "chi2_true", "chi2_best",
+           "error_cm", "fit_error_cm", "renders", "seconds"]
+KNOW = ("body", "place", "position", "none")
+
+
+def parse_rooms(text: str) -> list[int]:
+    """'0-11' or '0,3,5' -> room indices."""
+    if "-" in text:
+        a, b = (int(v) for v in text.split("-"))
+        return list(range(a, b + 1))
+    return [int(v) for v in text.split(",")]
+
+
+def fit_spot(fits: Path, room: str, variant: str) -> tuple[int, float]:
+    """The fit's spot (its CSV row ``fit:<face>``) and its six-way accuracy on the test people."""
+    for path in sorted(fits.glob("room-fit-*.csv")):
+        with path.open() as f:
+            for row in csv.DictReader(f):
+                if row["room"] == room and row["variant"] == variant and row["spot"].startswith("fit:"):
+                    return int(row["spot"].split(":")[1]), float(row["posture_accuracy"])
+    raise SystemExit(f"--fits {fits}: no row for {room} variant {variant} (run unseen_room_fit.py first)")
+
+
+def fit_predictions(runs: Path | None, room: str, variant: str, people: int) -> tuple[float, float] | None:
+    """The per-room fit's six-way accuracy and error (cm) on the same first ``people`` photographs
+    (its run's ``predictions-fit.npz``), or None without ``--fit-runs``."""
+    if runs is None:
+        return None
+    from unseen_room_fit import run_dir
+
+    path = run_dir(runs / room, variant) / "predictions-fit.npz"
+    if not path.exists():
+        raise SystemExit(f"--fit-runs {runs}: no {path} (run unseen_room_fit.py for {room})")
+    z = np.load(path)
+    ok = z["true_posture"][:people] == z["pred_posture"][:people]
+    return 100 * float(ok.mean()), 100 * float(np.linalg.norm(z["pred_xy"] - z["true_xy"], axis=1)[:people].mean())
+
+
+def test_specs(data: Path, room: str) -> tuple[list[dict], object]:
+    """The room's static test people's specs (as generated) and its plan entry."""
+    from nlos_spotlight.data.config import DatasetConfig
+    from nlos_spotlight.data.generate import plan
+    from nlos_spotlight.data.scene_builder import SceneBuilder
+    from nlos_spotlight.world.rooms import generate_room
+
+    cfg = DatasetConfig(**json.loads((data / "config.json").read_text()))
+    p = next((q for q in plan(cfg) if q.id == room), None)
+    if p is None:
+        raise SystemExit(f"{data}: no room {room} in its plan")
+    b = SceneBuilder(cfg, p, data)
+    scene = generate_room(p.seed, b._room_config()).scene
+    return [s for s in b._specs(scene) if s["trajectory"] < 0], cfg
+
+
+def photographs(test, face: int, frames: int, seed: int):
+    """(d, var, keep): the person's light as photographed (photograph minus empty-room photograph,
+    (B, H, W, 3)), its noise variance (the sum of both photographs'), and the unclipped pixels
+    (B, H, W) -- the same photographs as ``score_rooms``."""
+    from nlos_spotlight.evaluate.seen import seen_config
+    from nlos_spotlight.render.sensor import auto_exposure, dn_per_radiance, noise_variance_dn
+    from nlos_spotlight.train.imaging import capture, capture_sensor, form_images
+
+    net_cfg = seen_config(1).net
+    sensor = capture_sensor(tuple(test.ambient.shape[:2]), {"burst_frames": frames} if frames > 1 else {})
+    y = torch.zeros(len(test.faces))
+    y[face] = 1.0
+    gen = torch.Generator().manual_seed(20_000 + seed)
+    idx = torch.arange(test.num_samples)
+    ph = capture(test, idx, y, "spot", sensor, gen, True, net_cfg)
+    # the camera knows the exposure it set (metered on the empty room); the noise's level is read
+    # from the photographs themselves
+    static = form_images(test, idx[:1], y, "spot")[1]
+    k = dn_per_radiance(auto_exposure(static.clamp(min=0), sensor), sensor)
+    var = sum(noise_variance_dn(im.clamp(min=0) * k, sensor) / k ** 2 for im in (ph.images, ph.background))
+    return (ph.images - ph.background).double(), var.double(), ~ph.clipped
+
+
+def room_synthesizer(room: Path, cfg, face: int, faces: int | None = None) -> Synthesizer:
+    """The room's scan (its directory's meshes, as a user's scan) under candidate spot ``face``;
+    ``faces``: a coarser body (as many samples on it) for the search, else the test people's own."""
+    from nlos_spotlight.render.transport import RenderSettings
+    from nlos_spotlight.scene.io import load_scene
+    from nlos_spotlight.world.body import posed_body
+
+    scene = load_scene(room)
+    scene.human = None
+    settings = RenderSettings(pixel_samples=cfg.pixel_samples, transport_pixel_samples=cfg.transport_pixel_samples,
+                              spot_samples=cfg.spot_samples, person_samples=faces or cfg.person_samples, device="cpu")
+    return Synthesizer(scene, np.load(room / "static.npz")["aim_points"][face], settings, faces or cfg.body_faces,
+                       cfg.person_quadrature, pose=lambda params, n: posed_body(params, target_faces=n))
+
+
+def candidates(spec: dict, know: str) -> dict[str, tuple[object, np.ndarray]]:
+    """Per posture, the (params, floor xy) render for one person at ``know`` 'body' or 'place'."""
+    from nlos_spotlight.world.body import POSTURES
+
+    p, xy = spec["params"], np.asarray(spec["position"], float)
+    if know == "body":
+        return {q: (dataclasses.replace(p, posture=q), xy) for q in POSTURES}
+    return {q: (mean_body(q, p.facing_deg, p.height_m), xy) for q in POSTURES}
+
+
+def read_person(test, k: int, spec: dict) -> None:
+    """SystemExit unless stored person ``k`` is spec's (the same posture): the specs and the stored
+    samples must be the same people in the same order."""
+    from nlos_spotlight.world.body import POSTURES
+
+    if POSTURES[int(test.posture[k])] != spec["params"].posture:
+        raise SystemExit(f"{test.scene_dir}: stored person {k} is not the generated spec {k} (posture differs)")
+
+
+def synthesize_room(args, i: int) -> list[dict]:
+    """Every ``--know`` level on room ``i``'s test photographs; one row per level."""
+    from nlos_spotlight.data.tensors import load_scene_tensors
+    from nlos_spotlight.evaluate.seen import GROUP_OF
+    from nlos_spotlight.world.body import POSTURES
+
+    room = f"test-{i:05d}"
+    scene_dir = args.test / "scenes" / room
+    face, fit_acc = fit_spot(args.fits, room, args.variant)
+    specs, cfg = test_specs(args.test, room)
+    t = load_scene_tensors(scene_dir, ["normals"], samples="transport")
+    test = t.subset(torch.nonzero(t.trajectory[:, 0] < 0).flatten())
+    if test.num_samples != len(specs):
+        raise SystemExit(f"{room}: {test.num_samples} stored static people, {len(specs)} specs")
+    for k, spec in enumerate(specs):
+        read_person(test, k, spec)
+    d, var, keep = photographs(test, face, args.frames, args.seed)
+    syn = room_synthesizer(scene_dir, cfg, face)
+    fast = room_synthesizer(scene_dir, cfg, face, faces=args.search_faces)
+    rows = []
+    for know in args.know:
+        t0, r0, f0 = time.perf_counter(), syn.renders, fast.renders
+        bank = Bank(fast, floor_cells(fast.scene, args.spacing), 4) if know == "none" else None
+        pred, chi_true, chi_best, err = [], [], [], []
+        for k, spec in enumerate(specs[:args.people or None]):
+            w = keep[k].unsqueeze(-1).double() / var[k]
+            if know in ("none", "position"):
+                reading = read_photograph(fast, syn, bank, d[k], w, POSTURES, args.facings, args.iterations,
+                                          xy=spec["position"] if know == "position" else None)
+                best = reading.chi2
+                if know == "none":
+                    err.append(float(np.linalg.norm(reading.xy - np.asarray(spec["position"]))))
+            else:
+                best = {q: albedo_fit(d[k], w, *syn.light(params, xy))[0]
+                        for q, (params, xy) in candidates(spec, know).items()}
+            npix = float(keep[k].sum()) * 3
+            pred.append(POSTURES.index(min(best, key=best.get)))
+            chi_true.append(best[spec["params"].posture] / npix)
+            chi_best.append(min(best.values()) / npix)
+            if args.verbose:
+                print(f"  person {k}: {spec['params'].posture} -> {POSTURES[pred[-1]]}"
+                      + (f", {100 * err[-1]:.1f} cm" if err else ""), flush=True)
+        true = test.posture.numpy()[:len(pred)]
+        pred = np.array(pred)
+        fit = fit_predictions(args.fit_runs, room, args.variant, len(pred))
+        if fit is not None:
+            fit_acc = round(fit[0], 2)
+        rows.append(dict(room=room, know=know, spot=face, people=len(pred),
+                         accuracy=round(100 * float(np.mean(pred == true)), 2),
+                         accuracy3=round(100 * float(np.mean(GROUP_OF[pred] == GROUP_OF[true])), 2),
+                         fit_accuracy=fit_acc, chi2_true=round(float(np.median(chi_true)), 3),
+                         chi2_best=round(float(np.median(chi_best)), 3),
+                         error_cm=round(100 * float(np.mean(err)), 2) if err else "",
+                         fit_error_cm=round(fit[1], 2) if fit is not None else "",
+                         renders=syn.renders - r0 + fast.renders - f0, seconds=round(time.perf_counter() - t0, 1)))
+        out = args.out / room
+        out.mkdir(parents=True, exist_ok=True)
+        np.savez(out / f"predictions-{know}.npz", true_posture=true, pred_posture=pred, chi2_true=np.array(chi_true))
+        print(" ".join(f"{k}={v}" for k, v in rows[-1].items()), flush=True)
+    return rows
+
+
+def _with_know(args, know: list[str]) -> argparse.Namespace:
+    """``args`` asking only for the levels ``know``."""
+    return argparse.Namespace(**{**vars(args), "know": know})
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--test", type=Path, required=True, help="test dataset (unseen-test.yaml)")
+    ap.add_argument("--fits", type=Path, default=Path("docs/results/unseen-room-fit-3000"),
+                    help="the per-room fits' CSVs (the spot and the accuracy to compare)")
+    ap.add_argument("--fit-runs", type=Path, default=None,
+                    help="the per-room fits' rooms (out/unseen/room-fit-3000): compare on the same people")
+    ap.add_argument("--variant", default="16+e120+x2", help="the fit whose spot and photographs are used")
+    ap.add_argument("--rooms", default="0-11", help="test rooms, e.g. 0-11 or 0,3")
+    ap.add_argument("--know", nargs="+", default=["body", "place"], choices=KNOW)
+    ap.add_argument("--frames", type=int, default=16, help="frames the still capture averages")
+    ap.add_argument("--facings", type=int, default=6, help="facings scanned before the refinement ('position', 'none')")
+    ap.add_argument("--spacing", type=float, default=0.2, help="the coarse bank's floor grid ('none'), m")
+    ap.add_argument("--search-faces", type=int, default=300, help="body faces (and samples) of the search's renders")
+    ap.add_argument("--iterations", type=int, default=6, help="least-squares evaluations per posture ('position', 'none')")
+    ap.add_argument("--people", type=int, default=0, help="first PEOPLE test people of each room (0: all)")
+    ap.add_argument("--verbose", action="store_true", help="a line per person")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--out", type=Path, default=Path("out/unseen/synthesis"))
+    args = ap.parse_args()
+    torch.set_num_threads(args.threads)
+    args.out.mkdir(parents=True, exist_ok=True)
+    rooms = parse_rooms(args.rooms)
+    path = args.out / f"synthesis-{rooms[0]}-{rooms[-1]}.csv"
+    rows = []
+    if path.exists():  # resume: rooms and levels already scored are kept
+        with path.open() as f:
+            rows = [r for r in csv.DictReader(f) if r["know"] in args.know]
+        for r in rows:
+            for key in ("accuracy", "fit_accuracy"):
+                r[key] = float(r[key])
+    for i in rooms:
+        done = {r["know"] for r in rows if r["room"] == f"test-{i:05d}"}
+        if set(args.know) <= done:
+            continue
+        rows += synthesize_room(_with_know(args, [k for k in args.know if k not in done]), i)
+        with path.open("w", newline="") as f:
+            w = csv.DictWriter(f, COLUMNS)
+            w.writeheader()
+            w.writerows(rows)
+    for know in args.know:
+        sel = [r for r in rows if r["know"] == know]
+        print(f"{know}: six-way {np.mean([r['accuracy'] for r in sel]):.1f}% over {len(sel)} rooms "
+              f"(the fits on the same photographs {np.mean([r['fit_accuracy'] for r in sel]):.1f}%)")
+
+
+if __name__ == "__main__":
+    main()
