@@ -28,7 +28,7 @@ people's own body resolution.
 Photographs are exactly those the per-room fits were scored on: the room's 30 static test people,
 the fit's spot (``--fits``' CSV row of ``--variant``), the 16-frame still capture and the noise
 draws of ``evaluate.seen.score_rooms`` (seed 20,000 + ``--seed``). Prints per room and writes
-``--out``/synthesis-FIRST-LAST.csv (room, level, people, six-way and three-way accuracy, the fit's
+``--out``/synthesis-LEVELS-FIRST-LAST.csv (room, level, people, six-way and three-way accuracy, the fit's
 accuracy and error on the same photographs with ``--fit-runs``, median chi^2 per pixel at the true
 posture and at the answer, the place error, renders, seconds; resumable per room and level) and
 per-person predictions.
@@ -227,6 +227,67 @@ def synthesize_room(args, i: int) -> list[dict]:
     return rows
 
 
+LEVELS = {"body": "the person's own body, place, facing and height", "place": "mean body at the true place, facing, height",
+          "position": "mean body at the true place; facing, height fitted",
+          "none": "nothing known: place, facing, height fitted"}
+"""Each ``--know`` level as the summary names it."""
+
+
+def summary(args) -> list[str]:
+    """Markdown lines: per level, six-way and three-way accuracy on the first ``--people`` test
+    people of every room scored at that level (mean over rooms, 95% interval over rooms), the
+    per-room fit on the same photographs, for 'none' the place error, the median over rooms of
+    each room's median chi^2 per pixel at the true posture and at the answer (1: the photograph's
+    noise; the CSVs' rows over all the rows' people), and for the searches the
+    share of people whose true posture they fit worse than the 'place' level's render at the
+    person's own place, facing and height (the search fell short of a point it could have
+    reached); written to ``--out``/summary.md."""
+    from unseen_room_fit import room_interval
+
+    from nlos_spotlight.evaluate.seen import GROUP_OF
+
+    rows = []
+    for path in sorted(args.out.glob("synthesis-*.csv")):
+        with path.open() as f:
+            rows += list(csv.DictReader(f))
+    lines = [f"Analysis by synthesis on the per-room fits' test photographs ({args.variant}'s spot, "
+             f"{args.frames}-frame still capture), the first {args.people or 30} static test people of each room.", "",
+             "| renders told | rooms | people | six-way | interval over rooms | upright/sitting/crouching | "
+             "per-room fit, same photographs | place error | fit's error | chi^2/pixel, true posture / answer | "
+             "search short |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for know in KNOW:
+        rooms = sorted({r["room"] for r in rows if r["know"] == know})
+        if not rooms:
+            continue
+        acc, acc3, fit, short, people = [], [], [], [], 0
+        for room in rooms:
+            z = np.load(args.out / room / f"predictions-{know}.npz")
+            true, pred = (z[k][:args.people or None] for k in ("true_posture", "pred_posture"))
+            place = args.out / room / "predictions-place.npz"
+            if know in ("position", "none") and place.exists():
+                # the search's fit of the true posture is worse than the same body at the person's
+                # own place, facing and height: the search, not the physics, missed it
+                ref = np.load(place)["chi2_true"][:len(true)]
+                short += list(z["chi2_true"][:len(true)] > ref + 1e-4)
+            acc.append(100 * float(np.mean(true == pred)))
+            acc3.append(100 * float(np.mean(GROUP_OF[true] == GROUP_OF[pred])))
+            people += len(true)
+            if args.fit_runs is not None:
+                fit.append(fit_predictions(args.fit_runs, room, args.variant, len(true)))
+        err = [float(r["error_cm"]) for r in rows if r["know"] == know and r["error_cm"]]
+        fit_text = f"{np.mean([f[0] for f in fit]):.1f}%" if fit else ""
+        chi = [(float(r["chi2_true"]), float(r["chi2_best"])) for r in rows if r["know"] == know]
+        chi_text = f"{np.median([c[0] for c in chi]):.4f} / {np.median([c[1] for c in chi]):.4f}"
+        err_text = f"{np.mean(err):.1f} cm" if err and len(err) == len(rooms) else ""
+        fit_err = f"{np.mean([f[1] for f in fit]):.1f} cm" if fit and err_text else ""
+        lines.append(f"| {LEVELS[know]} | {len(rooms)} | {people} | **{np.mean(acc):.1f}%** | {room_interval(acc)} | "
+                     f"{np.mean(acc3):.1f}% | {fit_text} | {err_text} | {fit_err} | {chi_text} | "
+                     f"{f'{100 * np.mean(short):.0f}%' if short else ''} |")
+    (args.out / "summary.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    return lines
+
+
 def _with_know(args, know: list[str]) -> argparse.Namespace:
     """``args`` asking only for the levels ``know``."""
     return argparse.Namespace(**{**vars(args), "know": know})
@@ -252,15 +313,19 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--out", type=Path, default=Path("out/unseen/synthesis"))
+    ap.add_argument("--summary-only", action="store_true", help="only the summary of the rooms scored so far")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.summary_only:
+        summary(args)
+        return
     rooms = parse_rooms(args.rooms)
-    path = args.out / f"synthesis-{rooms[0]}-{rooms[-1]}.csv"
+    path = args.out / f"synthesis-{'-'.join(args.know)}-{rooms[0]}-{rooms[-1]}.csv"
     rows = []
     if path.exists():  # resume: rooms and levels already scored are kept
         with path.open() as f:
-            rows = [r for r in csv.DictReader(f) if r["know"] in args.know]
+            rows = list(csv.DictReader(f))
         for r in rows:
             for key in ("accuracy", "fit_accuracy"):
                 r[key] = float(r[key])
@@ -273,10 +338,7 @@ def main() -> None:
             w = csv.DictWriter(f, COLUMNS)
             w.writeheader()
             w.writerows(rows)
-    for know in args.know:
-        sel = [r for r in rows if r["know"] == know]
-        print(f"{know}: six-way {np.mean([r['accuracy'] for r in sel]):.1f}% over {len(sel)} rooms "
-              f"(the fits on the same photographs {np.mean([r['fit_accuracy'] for r in sel]):.1f}%)")
+    summary(args)
 
 
 if __name__ == "__main__":
