@@ -92,7 +92,7 @@ def fit_predictions(runs: Path | None, room: str, variant: str, people: int) -> 
     return 100 * float(ok.mean()), 100 * float(np.linalg.norm(z["pred_xy"] - z["true_xy"], axis=1)[:people].mean())
 
 
-def test_specs(data: Path, room: str) -> tuple[list[dict], object]:
+def static_specs(data: Path, room: str) -> tuple[list[dict], object]:
     """The room's static test people's specs (as generated) and its plan entry."""
     from nlos_spotlight.data.config import DatasetConfig
     from nlos_spotlight.data.generate import plan
@@ -156,7 +156,7 @@ def candidates(spec: dict, know: str) -> dict[str, tuple[object, np.ndarray]]:
     return {q: (mean_body(q, p.facing_deg, p.height_m), xy) for q in POSTURES}
 
 
-def read_person(test, k: int, spec: dict) -> None:
+def check_person(test, k: int, spec: dict) -> None:
     """SystemExit unless stored person ``k`` is spec's (the same posture): the specs and the stored
     samples must be the same people in the same order."""
     from nlos_spotlight.world.body import POSTURES
@@ -174,13 +174,13 @@ def synthesize_room(args, i: int) -> list[dict]:
     room = f"test-{i:05d}"
     scene_dir = args.test / "scenes" / room
     face, fit_acc = fit_spot(args.fits, room, args.variant)
-    specs, cfg = test_specs(args.test, room)
+    specs, cfg = static_specs(args.test, room)
     t = load_scene_tensors(scene_dir, ["normals"], samples="transport")
     test = t.subset(torch.nonzero(t.trajectory[:, 0] < 0).flatten())
     if test.num_samples != len(specs):
         raise SystemExit(f"{room}: {test.num_samples} stored static people, {len(specs)} specs")
     for k, spec in enumerate(specs):
-        read_person(test, k, spec)
+        check_person(test, k, spec)
     d, var, keep = photographs(test, face, args.frames, args.seed)
     syn = room_synthesizer(scene_dir, cfg, face)
     fast = room_synthesizer(scene_dir, cfg, face, faces=args.search_faces)
