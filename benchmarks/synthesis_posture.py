@@ -45,13 +45,19 @@ import argparse
 import csv
 import dataclasses
 import json
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import torch
 
-from nlos_spotlight.evaluate.synthesis import (Bank, Synthesizer, albedo_fit, floor_cells, mean_body,
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fitted_rooms_transfer import room_range  # noqa: E402
+from unseen_room_fit import read_fit_rows, room_interval, run_dir, static_people, write_rows  # noqa: E402
+
+from nlos_spotlight.data.store import atomic_npz  # noqa: E402
+from nlos_spotlight.evaluate.synthesis import (Bank, Synthesizer, albedo_fit, floor_cells, mean_body,  # noqa: E402
                                                read_photograph)
 
 COLUMNS = ["room", "know", "spot", "people", "accuracy", "accuracy3", "fit_accuracy", "chi2_true", "chi2_best",
@@ -59,21 +65,12 @@ COLUMNS = ["room", "know", "spot", "people", "accuracy", "accuracy3", "fit_accur
 KNOW = ("body", "place", "position", "none")
 
 
-def parse_rooms(text: str) -> list[int]:
-    """'0-11' or '0,3,5' -> room indices."""
-    if "-" in text:
-        a, b = (int(v) for v in text.split("-"))
-        return list(range(a, b + 1))
-    return [int(v) for v in text.split(",")]
-
-
 def fit_spot(fits: Path, room: str, variant: str) -> tuple[int, float]:
     """The fit's spot (its CSV row ``fit:<face>``) and its six-way accuracy on the test people."""
     for path in sorted(fits.glob("room-fit-*.csv")):
-        with path.open() as f:
-            for row in csv.DictReader(f):
-                if row["room"] == room and row["variant"] == variant and row["spot"].startswith("fit:"):
-                    return int(row["spot"].split(":")[1]), float(row["posture_accuracy"])
+        for row in read_fit_rows(path):
+            if row["room"] == room and row["variant"] == variant and row["spot"].startswith("fit:"):
+                return int(row["spot"].split(":")[1]), float(row["posture_accuracy"])
     raise SystemExit(f"--fits {fits}: no row for {room} variant {variant} (run unseen_room_fit.py first)")
 
 
@@ -82,8 +79,6 @@ def fit_predictions(runs: Path | None, room: str, variant: str, people: int) -> 
     (its run's ``predictions-fit.npz``), or None without ``--fit-runs``."""
     if runs is None:
         return None
-    from unseen_room_fit import run_dir
-
     path = run_dir(runs / room, variant) / "predictions-fit.npz"
     if not path.exists():
         raise SystemExit(f"--fit-runs {runs}: no {path} (run unseen_room_fit.py for {room})")
@@ -167,7 +162,6 @@ def check_person(test, k: int, spec: dict) -> None:
 
 def synthesize_room(args, i: int) -> list[dict]:
     """Every ``--know`` level on room ``i``'s test photographs; one row per level."""
-    from nlos_spotlight.data.tensors import load_scene_tensors
     from nlos_spotlight.evaluate.seen import GROUP_OF
     from nlos_spotlight.world.body import POSTURES
 
@@ -175,8 +169,7 @@ def synthesize_room(args, i: int) -> list[dict]:
     scene_dir = args.test / "scenes" / room
     face, fit_acc = fit_spot(args.fits, room, args.variant)
     specs, cfg = static_specs(args.test, room)
-    t = load_scene_tensors(scene_dir, ["normals"], samples="transport")
-    test = t.subset(torch.nonzero(t.trajectory[:, 0] < 0).flatten())
+    test = static_people(scene_dir)
     if test.num_samples != len(specs):
         raise SystemExit(f"{room}: {test.num_samples} stored static people, {len(specs)} specs")
     for k, spec in enumerate(specs):
@@ -222,7 +215,7 @@ def synthesize_room(args, i: int) -> list[dict]:
                          renders=syn.renders - r0 + fast.renders - f0, seconds=round(time.perf_counter() - t0, 1)))
         out = args.out / room
         out.mkdir(parents=True, exist_ok=True)
-        np.savez(out / f"predictions-{know}.npz", true_posture=true, pred_posture=pred, chi2_true=np.array(chi_true))
+        atomic_npz(out / f"predictions-{know}.npz", true_posture=true, pred_posture=pred, chi2_true=np.array(chi_true))
         print(" ".join(f"{k}={v}" for k, v in rows[-1].items()), flush=True)
     return rows
 
@@ -242,8 +235,6 @@ def summary(args) -> list[str]:
     share of people whose true posture they fit worse than the 'place' level's render at the
     person's own place, facing and height (the search fell short of a point it could have
     reached); written to ``--out``/summary.md."""
-    from unseen_room_fit import room_interval
-
     from nlos_spotlight.evaluate.seen import GROUP_OF
 
     rows = []
@@ -320,24 +311,18 @@ def main() -> None:
     if args.summary_only:
         summary(args)
         return
-    rooms = parse_rooms(args.rooms)
+    rooms = room_range(args.rooms)
     path = args.out / f"synthesis-{'-'.join(args.know)}-{rooms[0]}-{rooms[-1]}.csv"
     rows = []
     if path.exists():  # resume: rooms and levels already scored are kept
         with path.open() as f:
             rows = list(csv.DictReader(f))
-        for r in rows:
-            for key in ("accuracy", "fit_accuracy"):
-                r[key] = float(r[key])
     for i in rooms:
         done = {r["know"] for r in rows if r["room"] == f"test-{i:05d}"}
         if set(args.know) <= done:
             continue
         rows += synthesize_room(_with_know(args, [k for k in args.know if k not in done]), i)
-        with path.open("w", newline="") as f:
-            w = csv.DictWriter(f, COLUMNS)
-            w.writeheader()
-            w.writerows(rows)
+        write_rows(path, COLUMNS, rows)
     summary(args)
 
 

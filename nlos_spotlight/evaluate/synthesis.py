@@ -89,21 +89,26 @@ class Synthesizer:
         return 2 * out["nlos"].double(), 2 * out["nlos_ambient"].double()
 
 
-def albedo_fit(d: torch.Tensor, w: torch.Tensor, n: torch.Tensor, q: torch.Tensor) -> tuple[float, np.ndarray]:
-    """chi^2 and albedo (3,) of d ~ a N + (1 - a) Q with weights w, all (H, W, 3), a in [0, 1].
+def albedo_residual(d: torch.Tensor, w: torch.Tensor, n: torch.Tensor, q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """(residual d - a N - (1 - a) Q, albedo a (..., 3)) at the weighted least-squares a in [0, 1]
+    per channel; n, q (..., H, W, 3), d and w (H, W, 3).
 
     chi^2 is a sum of one parabola per channel, so the per-channel optimum clipped to [0, 1] is the
     constrained optimum."""
     g, e = n - q, d - q
-    a = ((w * g * e).sum((0, 1)) / (w * g * g).sum((0, 1)).clamp(min=1e-300)).clamp(0, 1)
-    return float((w * (e - a * g) ** 2).sum()), a.numpy()
+    a = ((w * g * e).sum((-3, -2)) / (w * g * g).sum((-3, -2)).clamp(min=1e-300)).clamp(0, 1)
+    return e - a[..., None, None, :] * g, a
+
+
+def albedo_fit(d: torch.Tensor, w: torch.Tensor, n: torch.Tensor, q: torch.Tensor) -> tuple[float, np.ndarray]:
+    """chi^2 and albedo (3,) of d ~ a N + (1 - a) Q with weights w, all (H, W, 3) (:func:`albedo_residual`)."""
+    r, a = albedo_residual(d, w, n, q)
+    return float((w * r ** 2).sum()), a.numpy()
 
 
 def albedo_fit_many(d: torch.Tensor, w: torch.Tensor, n: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
     """(K,) chi^2 of :func:`albedo_fit` for K renders n, q (K, H, W, 3) against one d, w (H, W, 3)."""
-    g, e = n - q, d - q
-    a = ((w * g * e).sum((1, 2)) / (w * g * g).sum((1, 2)).clamp(min=1e-300)).clamp(0, 1)
-    return (w * (e - a[:, None, None] * g) ** 2).sum((1, 2, 3))
+    return (w * albedo_residual(d, w, n, q)[0] ** 2).sum((1, 2, 3))
 
 
 def floor_cells(scene: Scene, spacing: float, floor: bool = True) -> np.ndarray:
@@ -158,11 +163,15 @@ def refine(syn: Synthesizer, d: torch.Tensor, w: torch.Tensor, posture: str, xy:
     entries ``free`` move (e.g. (2, 3): facing and height at a known place)."""
     from scipy.optimize import least_squares
 
+    if height_range is None:
+        from ..world.body import HEIGHT_RANGE_M as height_range
+    reg = syn.scene.hidden_region
+    lo = np.array([*reg.min, -np.inf, height_range[0]])
+    hi = np.array([*reg.max, np.inf, height_range[1]])
+    x0 = np.clip(np.array([*np.asarray(xy, float), facing, MEAN_HEIGHT_M]), lo, hi)
+    free = list(free)
     sw = w.sqrt()
     memo: dict[tuple, np.ndarray] = {}
-
-    x0 = np.array([*np.asarray(xy, float), facing, MEAN_HEIGHT_M])
-    free = list(free)
 
     def full(sub: np.ndarray) -> np.ndarray:
         theta = x0.copy()
@@ -173,17 +182,9 @@ def refine(syn: Synthesizer, d: torch.Tensor, w: torch.Tensor, posture: str, xy:
         theta = full(sub)
         key = tuple(np.round(theta, 9))
         if key not in memo:
-            n, q = syn.light(mean_body(posture, theta[2], theta[3]), theta[:2])
-            g, e = n - q, d - q
-            a = ((w * g * e).sum((0, 1)) / (w * g * g).sum((0, 1)).clamp(min=1e-300)).clamp(0, 1)
-            memo[key] = (sw * (e - a * g)).reshape(-1).numpy()
+            r, _ = albedo_residual(d, w, *syn.light(mean_body(posture, theta[2], theta[3]), theta[:2]))
+            memo[key] = (sw * r).reshape(-1).numpy()
         return memo[key]
-
-    if height_range is None:
-        from ..world.body import HEIGHT_RANGE_M as height_range
-    reg = syn.scene.hidden_region
-    lo = np.array([*reg.min, -np.inf, height_range[0]])
-    hi = np.array([*reg.max, np.inf, height_range[1]])
 
     def jac(sub: np.ndarray) -> np.ndarray:
         base, cols = residual(sub), []
@@ -194,7 +195,6 @@ def refine(syn: Synthesizer, d: torch.Tensor, w: torch.Tensor, posture: str, xy:
             cols.append((residual(t) - base) / step)
         return np.stack(cols, 1)
 
-    x0 = np.clip(x0, lo, hi)
     res = least_squares(residual, x0[free], jac=jac, bounds=(lo[free], hi[free]),
                         x_scale=np.array([0.05, 0.05, 10.0, 0.05])[free], max_nfev=evaluations)
     return full(res.x), float(2 * res.cost)
