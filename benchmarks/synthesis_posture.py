@@ -62,7 +62,9 @@ from nlos_spotlight.evaluate.synthesis import (Bank, Synthesizer, albedo_fit, fl
 
 COLUMNS = ["room", "know", "spot", "people", "accuracy", "accuracy3", "fit_accuracy", "chi2_true", "chi2_best",
            "error_cm", "fit_error_cm", "renders", "seconds"]
-KNOW = ("body", "place", "position", "none")
+KNOW = ("body", "place", "position", "none", "fit")
+TEMPERATURES = 10.0 ** np.linspace(-1, 4, 51)
+"""The fusion's temperatures tried (``evaluate.synthesis.fused_log_posterior``)."""
 
 
 def fit_spot(fits: Path, room: str, variant: str) -> tuple[int, float]:
@@ -85,6 +87,28 @@ def fit_predictions(runs: Path | None, room: str, variant: str, people: int) -> 
     z = np.load(path)
     ok = z["true_posture"][:people] == z["pred_posture"][:people]
     return 100 * float(ok.mean()), 100 * float(np.linalg.norm(z["pred_xy"] - z["true_xy"], axis=1)[:people].mean())
+
+
+def fit_run_arrays(runs: Path | None, room: str, variant: str) -> dict:
+    """The per-room fit's ``predictions-fit.npz`` on the room's test photographs."""
+    if runs is None:
+        raise SystemExit("--know fit and the fusion need --fit-runs (the per-room fits' rooms)")
+    path = run_dir(runs / room, variant) / "predictions-fit.npz"
+    if not path.exists():
+        raise SystemExit(f"--fit-runs {runs}: no {path} (run unseen_room_fit.py for {room})")
+    return dict(np.load(path))
+
+
+def fit_places(runs: Path | None, room: str, variant: str, test, specs: list[dict]) -> np.ndarray:
+    """(N, 2) the per-room fit's floor point for each test person, world frame; its true points
+    must be the specs' (the same people in the same order)."""
+    from nlos_spotlight.data.tensors import world_floor
+
+    z = fit_run_arrays(runs, room, variant)
+    frame = (test.origin_xy.numpy(), test.forward_xy.numpy())
+    if not np.allclose(world_floor(z["true_xy"], *frame), [s["position"] for s in specs], atol=1e-4):
+        raise SystemExit(f"{room}: the fit's test people are not the generated specs (positions differ)")
+    return world_floor(z["pred_xy"], *frame)
 
 
 def static_specs(data: Path, room: str) -> tuple[list[dict], object]:
@@ -178,22 +202,26 @@ def synthesize_room(args, i: int) -> list[dict]:
     syn = room_synthesizer(scene_dir, cfg, face)
     fast = room_synthesizer(scene_dir, cfg, face, faces=args.search_faces)
     rows = []
+    starts = fit_places(args.fit_runs, room, args.variant, test, specs) if "fit" in args.know else None
     for know in args.know:
         t0, r0, f0 = time.perf_counter(), syn.renders, fast.renders
         bank = Bank(fast, floor_cells(fast.scene, args.spacing), 4) if know == "none" else None
-        pred, chi_true, chi_best, err = [], [], [], []
+        pred, chi_true, chi_best, err, chi_all, xy_all = [], [], [], [], [], []
         for k, spec in enumerate(specs[:args.people or None]):
             w = keep[k].unsqueeze(-1).double() / var[k]
-            if know in ("none", "position"):
+            if know in ("none", "position", "fit"):
                 reading = read_photograph(fast, syn, bank, d[k], w, POSTURES, args.facings, args.iterations,
-                                          xy=spec["position"] if know == "position" else None)
+                                          xy=spec["position"] if know == "position" else None,
+                                          start=starts[k] if know == "fit" else None)
                 best = reading.chi2
-                if know == "none":
+                xy_all.append(reading.xy)
+                if know != "position":
                     err.append(float(np.linalg.norm(reading.xy - np.asarray(spec["position"]))))
             else:
                 best = {q: albedo_fit(d[k], w, *syn.light(params, xy))[0]
                         for q, (params, xy) in candidates(spec, know).items()}
             npix = float(keep[k].sum()) * 3
+            chi_all.append([best[q] for q in POSTURES])
             pred.append(POSTURES.index(min(best, key=best.get)))
             chi_true.append(best[spec["params"].posture] / npix)
             chi_best.append(min(best.values()) / npix)
@@ -215,14 +243,16 @@ def synthesize_room(args, i: int) -> list[dict]:
                          renders=syn.renders - r0 + fast.renders - f0, seconds=round(time.perf_counter() - t0, 1)))
         out = args.out / room
         out.mkdir(parents=True, exist_ok=True)
-        atomic_npz(out / f"predictions-{know}.npz", true_posture=true, pred_posture=pred, chi2_true=np.array(chi_true))
+        atomic_npz(out / f"predictions-{know}.npz", true_posture=true, pred_posture=pred, chi2_true=np.array(chi_true),
+                   chi2=np.array(chi_all), pred_xy=np.array(xy_all).reshape(-1, 2))
         print(" ".join(f"{k}={v}" for k, v in rows[-1].items()), flush=True)
     return rows
 
 
 LEVELS = {"body": "the person's own body, place, facing and height", "place": "mean body at the true place, facing, height",
           "position": "mean body at the true place; facing, height fitted",
-          "none": "nothing known: place, facing, height fitted"}
+          "none": "nothing known: place, facing, height fitted",
+          "fit": "nothing known: the search started at the per-room fit's place"}
 """Each ``--know`` level as the summary names it."""
 
 
@@ -274,8 +304,73 @@ def summary(args) -> list[str]:
         lines.append(f"| {LEVELS[know]} | {len(rooms)} | {people} | **{np.mean(acc):.1f}%** | {room_interval(acc)} | "
                      f"{np.mean(acc3):.1f}% | {fit_text} | {err_text} | {fit_err} | {chi_text} | "
                      f"{f'{100 * np.mean(short):.0f}%' if short else ''} |")
+    lines += fusion_lines(args)
     (args.out / "summary.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
+    return lines
+
+
+def fusion_rooms(args) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per room scored at level 'fit' whose per-room fit stored its posture probabilities: (true
+    posture (n,), synthesis chi^2 (n, 6), the fit's probabilities (n, 6)) on the same people."""
+    rooms = {}
+    for path in sorted(args.out.glob("test-*/predictions-fit.npz")):
+        z, room = np.load(path), path.parent.name
+        f = fit_run_arrays(args.fit_runs, room, args.variant)
+        if "chi2" not in z or "posture_prob" not in f:
+            continue
+        n = min(len(z["true_posture"]), args.people or len(z["true_posture"]))
+        if not np.array_equal(f["true_posture"][:n], z["true_posture"][:n]):
+            raise SystemExit(f"{room}: the fit's and the synthesis' people differ")
+        rooms[room] = (z["true_posture"][:n], z["chi2"][:n], f["posture_prob"][:n])
+    return rooms
+
+
+def fused_accuracy(rooms: dict, temperature: float, names=None) -> list[float]:
+    """Six-way accuracy (%) of the fused posterior at ``temperature`` in each room of ``names``
+    (default all); temperature 0: the synthesis alone, infinity: the network alone."""
+    from nlos_spotlight.evaluate.synthesis import fused_log_posterior
+
+    acc = []
+    for room in names or rooms:
+        true, chi2, prob = rooms[room]
+        if temperature == 0:
+            pred = chi2.argmin(1)
+        elif np.isinf(temperature):
+            pred = prob.argmax(1)
+        else:
+            pred = fused_log_posterior(chi2, prob, temperature).argmax(1)
+        acc.append(100 * float(np.mean(pred == true)))
+    return acc
+
+
+def fusion_lines(args) -> list[str]:
+    """Markdown lines: the per-room fit's posterior times the synthesis likelihood, its
+    temperature chosen for each room on the other rooms (leave one room out), against each alone
+    on the same people; and, in sample, the accuracy over temperatures."""
+    if args.fit_runs is None:
+        return []
+    rooms = fusion_rooms(args)
+    if len(rooms) < 2:
+        return []
+    names = list(rooms)
+    held = []
+    for room in names:
+        others = [r for r in names if r != room]
+        scores = np.array([np.mean(fused_accuracy(rooms, t, others)) for t in TEMPERATURES])
+        best = np.flatnonzero(scores == scores.max())
+        held.append(fused_accuracy(rooms, float(TEMPERATURES[best[len(best) // 2]]), [room])[0])
+    people = sum(len(v[0]) for v in rooms.values())
+    alone = {name: fused_accuracy(rooms, t) for name, t in (("synthesis", 0.0), ("network", np.inf))}
+    lines = ["", f"Fusion on {len(rooms)} rooms, {people} people: the per-room fit's posture probabilities times the "
+             "synthesis likelihood exp(-(chi^2 - min chi^2) / 2T) (search started at the fit's place), T chosen "
+             "for each room on the others:", "",
+             "| posture from | six-way | interval over rooms |", "|---|---|---|",
+             f"| the per-room fit alone | {np.mean(alone['network']):.1f}% | {room_interval(alone['network'])} |",
+             f"| the synthesis alone | {np.mean(alone['synthesis']):.1f}% | {room_interval(alone['synthesis'])} |",
+             f"| both (T left one room out) | **{np.mean(held):.1f}%** | {room_interval(held)} |", "",
+             "In sample, over T: " + ", ".join(f"T={t:g}: {np.mean(fused_accuracy(rooms, t)):.1f}%"
+                                              for t in (0.0, 1.0, 10.0, 100.0, 1000.0, 10000.0, np.inf))]
     return lines
 
 

@@ -171,6 +171,14 @@ def ground_frame(pos_xy: np.ndarray, origin_xy: np.ndarray, fwd_xy: np.ndarray) 
     return np.stack([rel @ fwd_xy, rel @ left], axis=1)
 
 
+def world_floor(rel_xy: np.ndarray, origin_xy: np.ndarray, fwd_xy: np.ndarray) -> np.ndarray:
+    """Region-frame floor points (N, 2) -> world floor points: the inverse of :func:`ground_frame`."""
+    fwd = np.asarray(fwd_xy, float)
+    left = np.array([-fwd[1], fwd[0]])
+    rel = np.asarray(rel_xy, float).reshape(-1, 2)
+    return np.asarray(origin_xy, float) + rel[:, :1] * fwd + rel[:, 1:] * left
+
+
 def region_center(scene_dir: Path) -> np.ndarray:
     """(2,) world floor center of a dataset scene's hidden region."""
     return _hidden_region(scene_dir)[0]

@@ -120,13 +120,14 @@ def score_rooms(net, net_cfg: NLOSNetConfig, sensor, rooms: list[SceneTensors], 
     y (T,) or None, mode), with the same sensor noise for every run (seed 20,000 + ``seed``).
 
     Besides the scores, ``per_person`` holds arrays over all test people (room, true and predicted
-    position (N, 2) in the region frame, true and predicted posture) and ``photos`` the first test
+    position (N, 2) in the region frame, true and predicted posture, the posture probabilities
+    (N, 6)) and ``photos`` the first test
     person of each posture as photographed (image and empty-room image (6, H, W, 3), NaN where a
     posture has no test person; first room)."""
     net.eval()
     device = next(net.parameters()).device
     gen = torch.Generator(device=device).manual_seed(20_000 + seed)  # the same noise for every run
-    cols = {k: [] for k in ("room", "true_xy", "pred_xy", "true_posture", "pred_posture")}
+    cols = {k: [] for k in ("room", "true_xy", "pred_xy", "true_posture", "pred_posture", "posture_prob")}
     spots, photos = [], None
     with torch.no_grad():
         for i, (t, (y, mode)) in enumerate(zip(rooms, lights)):
@@ -137,7 +138,8 @@ def score_rooms(net, net_cfg: NLOSNetConfig, sensor, rooms: list[SceneTensors], 
                 ph = capture(t, idx, y, mode, sensor, gen, noise, net_cfg)
                 pos, logits = net(ph.images, ph.background, ph.clipped, ph.geometry)
                 for k, v in (("room", torch.full_like(idx, i)), ("true_xy", t.target[idx]), ("pred_xy", pos),
-                             ("true_posture", t.posture[idx]), ("pred_posture", logits.argmax(1))):
+                             ("true_posture", t.posture[idx]), ("pred_posture", logits.argmax(1)),
+                             ("posture_prob", logits.softmax(1))):
                     cols[k].append(v.cpu().numpy())
                 if i == 0:
                     photos = _first_photos(photos, t.posture[idx], ph)

@@ -200,15 +200,25 @@ def refine(syn: Synthesizer, d: torch.Tensor, w: torch.Tensor, posture: str, xy:
     return full(res.x), float(2 * res.cost)
 
 
-def read_photograph(fast: Synthesizer, full: Synthesizer, bank: Bank, d: torch.Tensor, w: torch.Tensor,
-                    postures, facings: int = 6, evaluations: int = 6, xy: np.ndarray | None = None) -> Reading:
+def read_photograph(fast: Synthesizer, full: Synthesizer, bank: Bank | None, d: torch.Tensor, w: torch.Tensor,
+                    postures, facings: int = 6, evaluations: int = 6, xy: np.ndarray | None = None,
+                    start: np.ndarray | None = None) -> Reading:
     """Posture and place of a photograph's person light d (H, W, 3; weights w) with nothing known:
     the bank's nearest floor cell, then per posture the best of ``facings`` directions there,
     refined (:func:`refine`) with ``fast`` (a coarser body) and scored with ``full``. Given ``xy``
-    (a known floor point) the bank is skipped and only facing and height are fitted."""
+    (a known floor point) the bank is skipped and only facing and height are fitted; given
+    ``start`` (a floor point from elsewhere, e.g. a network's answer) the search starts there
+    instead of at the bank's cell and fits all four."""
     chi2, fits = {}, {}
     free = (0, 1, 2, 3) if xy is None else (2, 3)
-    xy = bank.best(d, w) if xy is None else np.asarray(xy, float)
+    if xy is not None:
+        xy = np.asarray(xy, float)
+    elif start is not None:
+        xy = np.asarray(start, float)
+    elif bank is not None:
+        xy = bank.best(d, w)
+    else:
+        raise ValueError("read_photograph: give a bank, a start or the floor point xy")
     for posture in postures:
         turns = [360.0 * k / facings for k in range(facings)]
         start = [albedo_fit(d, w, *fast.light(mean_body(posture, f), xy))[0] for f in turns]
@@ -218,3 +228,16 @@ def read_photograph(fast: Synthesizer, full: Synthesizer, bank: Bank, d: torch.T
     best = min(chi2, key=chi2.get)
     t = fits[best]
     return Reading(best, t[:2].copy(), float(t[2] % 360.0), float(t[3]), chi2)
+
+
+def fused_log_posterior(chi2: np.ndarray, prob: np.ndarray, temperature: float) -> np.ndarray:
+    """(N, Q) log posterior over postures from a network's probabilities ``prob`` (N, Q) and the
+    synthesis fits' chi^2 (N, Q), up to a constant per row:
+
+        log p(q | d) = log p_net(q | d) - (chi^2_q - min_q chi^2_q) / (2 T).
+
+    T = 1 is the Gaussian likelihood of a model that is exact up to the noise; the mean body's
+    misfit makes chi^2 differences overconfident, so T > 1 tempers them (T -> infinity: the
+    network alone, T -> 0: the synthesis alone)."""
+    chi2 = np.asarray(chi2, float)
+    return np.log(np.clip(prob, 1e-12, None)) - (chi2 - chi2.min(1, keepdims=True)) / (2.0 * temperature)

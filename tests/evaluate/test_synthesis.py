@@ -11,7 +11,7 @@ import torch
 
 from nlos_spotlight.evaluate.crb import PERSON
 from nlos_spotlight.evaluate.synthesis import (Bank, Synthesizer, albedo_fit, albedo_fit_many, floor_cells,
-                                               mean_body, read_photograph, refine)
+                                               fused_log_posterior, mean_body, read_photograph, refine)
 from nlos_spotlight.render.person import Person
 from nlos_spotlight.render.transport import RenderSettings
 from nlos_spotlight.scene.builders import mannequin
@@ -119,3 +119,37 @@ def test_read_photograph_names_the_posture_and_place(synth):
                                   ("standing", "hands_90", "sitting"), facings=4, evaluations=8)
         assert reading.posture == posture, reading.chi2
         assert np.linalg.norm(reading.xy - xy) < 0.3 * np.sqrt(2)
+
+
+def test_read_photograph_from_a_given_start(synth):
+    """Started 14 cm off (a network's answer) with no bank, the search names the posture and moves
+    towards the person; with neither a bank nor a point it refuses."""
+    fast = Synthesizer(synth.scene, SPOT_TARGET, dataclasses.replace(SETTINGS, person_samples=96), body_faces=0,
+                       quadrature="mc", pose=pose)
+    xy = np.array([1.2, 2.0])
+    truth = dataclasses.replace(mean_body("sitting", 120.0, 1.7), albedo=np.full(3, 0.5))
+    clean = photo(synth, truth, xy)
+    sigma = float(clean.norm()) / 100 / np.sqrt(clean.numel())
+    d = clean + sigma * torch.randn(clean.shape, generator=torch.Generator().manual_seed(1), dtype=torch.float64)
+    w = torch.full_like(d, sigma ** -2)
+    start = xy + np.array([0.1, -0.1])
+    reading = read_photograph(fast, synth, None, d, w, ("standing", "sitting", "crouching"), facings=4,
+                              evaluations=10, start=start)
+    assert reading.posture == "sitting", reading.chi2
+    assert np.linalg.norm(reading.xy - xy) < 0.5 * np.linalg.norm(start - xy)
+    with pytest.raises(ValueError, match="bank"):
+        read_photograph(fast, synth, None, d, w, ("standing",))
+
+
+def test_fused_posterior_limits_and_value():
+    """T -> infinity leaves the network's answer, T -> 0 the synthesis', and at T = 1 the log
+    posterior is log p - (chi^2 - min chi^2) / 2 exactly."""
+    prob = np.array([[0.7, 0.2, 0.1], [0.1, 0.1, 0.8]])
+    chi2 = np.array([[130.0, 100.0, 160.0], [300.0, 320.0, 330.0]])
+    assert (fused_log_posterior(chi2, prob, 1e9).argmax(1) == prob.argmax(1)).all()
+    assert (fused_log_posterior(chi2, prob, 1e-3).argmax(1) == chi2.argmin(1)).all()
+    want = np.log(prob) - (chi2 - chi2.min(1, keepdims=True)) / 2
+    np.testing.assert_allclose(fused_log_posterior(chi2, prob, 1.0), want, rtol=1e-12)
+    # between: the network's 0.7 / 0.2 is worth 30 units of chi^2 at T = 30 / (2 ln 3.5) = 11.97
+    assert fused_log_posterior(chi2, prob, 12.5)[0].argmax() == 0
+    assert fused_log_posterior(chi2, prob, 11.5)[0].argmax() == 1
