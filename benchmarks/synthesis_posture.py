@@ -15,12 +15,19 @@ clipped weighted least-squares fit per channel. What else the renders are told, 
 * ``body``: the person's own build, pose variant, height, facing and place (only posture and
   albedo unknown): a control. Its chi^2 at the true posture should be about the pixel count
   (the photograph's noise), its accuracy near the ideal observer's "everything known".
+* ``build``: the person's own build (gender, weight, muscle, proportions) at pose variant 0, at the
+  true place, facing and height: with ``body`` and ``place``, what build and pose each cost.
 * ``place``: the true floor position, facing and height; the body is the library's mean build at
   pose variant 0: what a body model that does not know the person costs.
+* ``variants``: as ``place``, each posture's best of ``--pose-variants`` pose variants.
 * ``position``: the true floor point only; per posture the facing is scanned over ``--facings``
   directions, then facing and height are fitted (``evaluate.synthesis.refine``).
 * ``none``: nothing but the room: the place too (``evaluate.synthesis.read_photograph``: a coarse
   bank over the floor, then the same per posture with all four fitted). Also scores the place.
+* ``fit``: as ``none``, the search started at the per-room fit's floor point for the photograph
+  (``--fit-runs``) instead of the bank's cell. With ``--fit-runs`` the summary also fuses the
+  fit's posture probabilities with this search's chi^2 (``evaluate.synthesis.fused_log_posterior``,
+  the temperature chosen leaving one room out).
 
 The searches render a coarser body (``--search-faces``) and score each posture's fit with the test
 people's own body resolution.
@@ -62,7 +69,9 @@ from nlos_spotlight.evaluate.synthesis import (Bank, Synthesizer, albedo_fit, fl
 
 COLUMNS = ["room", "know", "spot", "people", "accuracy", "accuracy3", "fit_accuracy", "chi2_true", "chi2_best",
            "error_cm", "fit_error_cm", "renders", "seconds"]
-KNOW = ("body", "place", "position", "none", "fit")
+KNOW = ("body", "build", "place", "variants", "position", "none", "fit")
+BUILD = ("gender", "weight", "muscle", "proportions")
+"""The body model's build phenotypes (``world.body.BodyParams``)."""
 TEMPERATURES = 10.0 ** np.linspace(-1, 4, 51)
 """The fusion's temperatures tried (``evaluate.synthesis.fused_log_posterior``)."""
 
@@ -165,14 +174,21 @@ def room_synthesizer(room: Path, cfg, face: int, faces: int | None = None) -> Sy
                        cfg.person_quadrature, pose=lambda params, n: posed_body(params, target_faces=n))
 
 
-def candidates(spec: dict, know: str) -> dict[str, tuple[object, np.ndarray]]:
-    """Per posture, the (params, floor xy) render for one person at ``know`` 'body' or 'place'."""
+def candidates(spec: dict, know: str, variants: int) -> dict[str, list]:
+    """Per posture, the bodies (params) to render at the person's own place for one person at
+    ``know`` 'body', 'build' (the person's build, pose variant 0), 'place' (the mean build) or
+    'variants' (the mean build, each of ``variants`` pose variants: the best one counts)."""
     from nlos_spotlight.world.body import POSTURES
 
-    p, xy = spec["params"], np.asarray(spec["position"], float)
+    p = spec["params"]
     if know == "body":
-        return {q: (dataclasses.replace(p, posture=q), xy) for q in POSTURES}
-    return {q: (mean_body(q, p.facing_deg, p.height_m), xy) for q in POSTURES}
+        return {q: [dataclasses.replace(p, posture=q)] for q in POSTURES}
+    mean = {q: mean_body(q, p.facing_deg, p.height_m) for q in POSTURES}
+    if know == "build":
+        return {q: [dataclasses.replace(b, **{k: getattr(p, k) for k in BUILD})] for q, b in mean.items()}
+    if know == "variants":
+        return {q: [dataclasses.replace(b, pose_seed=v) for v in range(variants)] for q, b in mean.items()}
+    return {q: [b] for q, b in mean.items()}
 
 
 def check_person(test, k: int, spec: dict) -> None:
@@ -218,8 +234,8 @@ def synthesize_room(args, i: int) -> list[dict]:
                 if know != "position":
                     err.append(float(np.linalg.norm(reading.xy - np.asarray(spec["position"]))))
             else:
-                best = {q: albedo_fit(d[k], w, *syn.light(params, xy))[0]
-                        for q, (params, xy) in candidates(spec, know).items()}
+                best = {q: min(albedo_fit(d[k], w, *syn.light(params, spec["position"]))[0] for params in bodies)
+                        for q, bodies in candidates(spec, know, args.pose_variants).items()}
             npix = float(keep[k].sum()) * 3
             chi_all.append([best[q] for q in POSTURES])
             pred.append(POSTURES.index(min(best, key=best.get)))
@@ -249,7 +265,10 @@ def synthesize_room(args, i: int) -> list[dict]:
     return rows
 
 
-LEVELS = {"body": "the person's own body, place, facing and height", "place": "mean body at the true place, facing, height",
+LEVELS = {"body": "the person's own body, place, facing and height",
+          "build": "the person's build (pose variant 0) at the true place, facing, height",
+          "place": "mean body at the true place, facing, height",
+          "variants": "mean build, best of the pose variants, at the true place, facing, height",
           "position": "mean body at the true place; facing, height fitted",
           "none": "nothing known: place, facing, height fitted",
           "fit": "nothing known: the search started at the per-room fit's place"}
@@ -285,7 +304,7 @@ def summary(args) -> list[str]:
             z = np.load(args.out / room / f"predictions-{know}.npz")
             true, pred = (z[k][:args.people or None] for k in ("true_posture", "pred_posture"))
             place = args.out / room / "predictions-place.npz"
-            if know in ("position", "none") and place.exists():
+            if know in ("position", "none", "fit") and place.exists():
                 # the search's fit of the true posture is worse than the same body at the person's
                 # own place, facing and height: the search, not the physics, missed it
                 ref = np.load(place)["chi2_true"][:len(true)]
@@ -394,6 +413,7 @@ def main() -> None:
     ap.add_argument("--spacing", type=float, default=0.2, help="the coarse bank's floor grid ('none'), m")
     ap.add_argument("--search-faces", type=int, default=300, help="body faces (and samples) of the search's renders")
     ap.add_argument("--iterations", type=int, default=6, help="least-squares evaluations per posture ('position', 'none')")
+    ap.add_argument("--pose-variants", type=int, default=8, help="pose variants tried ('variants'; the library has 8)")
     ap.add_argument("--people", type=int, default=0, help="first PEOPLE test people of each room (0: all)")
     ap.add_argument("--verbose", action="store_true", help="a line per person")
     ap.add_argument("--seed", type=int, default=0)
