@@ -28,6 +28,8 @@ clipped weighted least-squares fit per channel. What else the renders are told, 
   (``--fit-runs``) instead of the bank's cell. With ``--fit-runs`` the summary also fuses the
   fit's posture probabilities with this search's chi^2 (``evaluate.synthesis.fused_log_posterior``,
   the temperature chosen leaving one room out).
+* ``fitvar``: as ``fit``, each posture scored by the best of ``--pose-variants`` pose variants at
+  its fitted place, facing and height.
 
 The searches render a coarser body (``--search-faces``) and score each posture's fit with the test
 people's own body resolution.
@@ -69,7 +71,7 @@ from nlos_spotlight.evaluate.synthesis import (Bank, Synthesizer, albedo_fit, fl
 
 COLUMNS = ["room", "know", "spot", "people", "accuracy", "accuracy3", "fit_accuracy", "chi2_true", "chi2_best",
            "error_cm", "fit_error_cm", "renders", "seconds"]
-KNOW = ("body", "build", "place", "variants", "position", "none", "fit")
+KNOW = ("body", "build", "place", "variants", "position", "none", "fit", "fitvar")
 BUILD = ("gender", "weight", "muscle", "proportions")
 """The body model's build phenotypes (``world.body.BodyParams``)."""
 TEMPERATURES = 10.0 ** np.linspace(-1, 4, 51)
@@ -218,17 +220,19 @@ def synthesize_room(args, i: int) -> list[dict]:
     syn = room_synthesizer(scene_dir, cfg, face)
     fast = room_synthesizer(scene_dir, cfg, face, faces=args.search_faces)
     rows = []
-    starts = fit_places(args.fit_runs, room, args.variant, test, specs) if "fit" in args.know else None
+    starts = fit_places(args.fit_runs, room, args.variant, test, specs) \
+        if {"fit", "fitvar"} & set(args.know) else None
     for know in args.know:
         t0, r0, f0 = time.perf_counter(), syn.renders, fast.renders
         bank = Bank(fast, floor_cells(fast.scene, args.spacing), 4) if know == "none" else None
         pred, chi_true, chi_best, err, chi_all, xy_all = [], [], [], [], [], []
         for k, spec in enumerate(specs[:args.people or None]):
             w = keep[k].unsqueeze(-1).double() / var[k]
-            if know in ("none", "position", "fit"):
+            if know in ("none", "position", "fit", "fitvar"):
                 reading = read_photograph(fast, syn, bank, d[k], w, POSTURES, args.facings, args.iterations,
                                           xy=spec["position"] if know == "position" else None,
-                                          start=starts[k] if know == "fit" else None)
+                                          start=starts[k] if know.startswith("fit") else None,
+                                          variants=args.pose_variants if know == "fitvar" else 1)
                 best = reading.chi2
                 xy_all.append(reading.xy)
                 if know != "position":
@@ -271,7 +275,8 @@ LEVELS = {"body": "the person's own body, place, facing and height",
           "variants": "mean build, best of the pose variants, at the true place, facing, height",
           "position": "mean body at the true place; facing, height fitted",
           "none": "nothing known: place, facing, height fitted",
-          "fit": "nothing known: the search started at the per-room fit's place"}
+          "fit": "nothing known: the search started at the per-room fit's place",
+          "fitvar": "as the last, each posture scored by the best of the pose variants"}
 """Each ``--know`` level as the summary names it."""
 
 
@@ -304,7 +309,7 @@ def summary(args) -> list[str]:
             z = np.load(args.out / room / f"predictions-{know}.npz")
             true, pred = (z[k][:args.people or None] for k in ("true_posture", "pred_posture"))
             place = args.out / room / "predictions-place.npz"
-            if know in ("position", "none", "fit") and place.exists():
+            if know in ("position", "none", "fit", "fitvar") and place.exists():
                 # the search's fit of the true posture is worse than the same body at the person's
                 # own place, facing and height: the search, not the physics, missed it
                 ref = np.load(place)["chi2_true"][:len(true)]
@@ -329,11 +334,11 @@ def summary(args) -> list[str]:
     return lines
 
 
-def fusion_rooms(args) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per room scored at level 'fit' whose per-room fit stored its posture probabilities: (true
+def fusion_rooms(args, know: str) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per room scored at level ``know`` whose per-room fit stored its posture probabilities: (true
     posture (n,), synthesis chi^2 (n, 6), the fit's probabilities (n, 6)) on the same people."""
     rooms = {}
-    for path in sorted(args.out.glob("test-*/predictions-fit.npz")):
+    for path in sorted(args.out.glob(f"test-*/predictions-{know}.npz")):
         z, room = np.load(path), path.parent.name
         f = fit_run_arrays(args.fit_runs, room, args.variant)
         if "chi2" not in z or "posture_prob" not in f:
@@ -364,12 +369,18 @@ def fused_accuracy(rooms: dict, temperature: float, names=None) -> list[float]:
 
 
 def fusion_lines(args) -> list[str]:
-    """Markdown lines: the per-room fit's posterior times the synthesis likelihood, its
-    temperature chosen for each room on the other rooms (leave one room out), against each alone
-    on the same people; and, in sample, the accuracy over temperatures."""
+    """Markdown lines for each search started at the fit's place ('fit', 'fitvar'): the per-room
+    fit's posterior times the synthesis likelihood, its temperature chosen for each room on the
+    other rooms (leave one room out), against each alone on the same people; and, in sample, the
+    accuracy over temperatures."""
     if args.fit_runs is None:
         return []
-    rooms = fusion_rooms(args)
+    return [line for know in ("fit", "fitvar") for line in fusion_level(args, know)]
+
+
+def fusion_level(args, know: str) -> list[str]:
+    """:func:`fusion_lines` for one level."""
+    rooms = fusion_rooms(args, know)
     if len(rooms) < 2:
         return []
     names = list(rooms)
@@ -382,7 +393,7 @@ def fusion_lines(args) -> list[str]:
     people = sum(len(v[0]) for v in rooms.values())
     alone = {name: fused_accuracy(rooms, t) for name, t in (("synthesis", 0.0), ("network", np.inf))}
     lines = ["", f"Fusion on {len(rooms)} rooms, {people} people: the per-room fit's posture probabilities times the "
-             "synthesis likelihood exp(-(chi^2 - min chi^2) / 2T) (search started at the fit's place), T chosen "
+             f"synthesis likelihood exp(-(chi^2 - min chi^2) / 2T) (level '{know}': {LEVELS[know]}), T chosen "
              "for each room on the others:", "",
              "| posture from | six-way | interval over rooms |", "|---|---|---|",
              f"| the per-room fit alone | {np.mean(alone['network']):.1f}% | {room_interval(alone['network'])} |",

@@ -202,13 +202,15 @@ def refine(syn: Synthesizer, d: torch.Tensor, w: torch.Tensor, posture: str, xy:
 
 def read_photograph(fast: Synthesizer, full: Synthesizer, bank: Bank | None, d: torch.Tensor, w: torch.Tensor,
                     postures, facings: int = 6, evaluations: int = 6, xy: np.ndarray | None = None,
-                    start: np.ndarray | None = None) -> Reading:
+                    start: np.ndarray | None = None, variants: int = 1) -> Reading:
     """Posture and place of a photograph's person light d (H, W, 3; weights w) with nothing known:
     the bank's nearest floor cell, then per posture the best of ``facings`` directions there,
     refined (:func:`refine`) with ``fast`` (a coarser body) and scored with ``full``. Given ``xy``
     (a known floor point) the bank is skipped and only facing and height are fitted; given
     ``start`` (a floor point from elsewhere, e.g. a network's answer) the search starts there
-    instead of at the bank's cell and fits all four."""
+    instead of at the bank's cell and fits all four. With ``variants`` > 1 each posture is scored
+    by the best of that many pose variants (``pose_seed``) at its fitted place: the body model's
+    pose jitter, and for "unknown" its gesture, are nuisances too."""
     chi2, fits = {}, {}
     free = (0, 1, 2, 3) if xy is None else (2, 3)
     if xy is not None:
@@ -223,7 +225,9 @@ def read_photograph(fast: Synthesizer, full: Synthesizer, bank: Bank | None, d: 
         turns = [360.0 * k / facings for k in range(facings)]
         start = [albedo_fit(d, w, *fast.light(mean_body(posture, f), xy))[0] for f in turns]
         theta, _ = refine(fast, d, w, posture, xy, turns[int(np.argmin(start))], evaluations, free=free)
-        chi2[posture] = albedo_fit(d, w, *full.light(mean_body(posture, theta[2], theta[3]), theta[:2]))[0]
+        body = mean_body(posture, theta[2], theta[3])
+        chi2[posture] = min(albedo_fit(d, w, *full.light(dataclasses.replace(body, pose_seed=v), theta[:2]))[0]
+                            for v in range(variants))
         fits[posture] = theta
     best = min(chi2, key=chi2.get)
     t = fits[best]

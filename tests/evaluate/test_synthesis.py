@@ -141,6 +141,29 @@ def test_read_photograph_from_a_given_start(synth):
         read_photograph(fast, synth, None, d, w, ("standing",))
 
 
+def test_read_photograph_scores_the_best_pose_variant(synth):
+    """A body whose arms depend on its pose variant: the photograph of variant 1 is fitted to the
+    noise (chi^2 about its pixel count) only when the search may try two variants."""
+    def pose2(params, faces):
+        scale, arms = SHAPE[params.posture]
+        return mannequin([0.0, 0.0, 0.0], params.height_m * scale, facing_deg=params.facing_deg,
+                         arms_deg=arms + 60.0 * params.pose_seed)
+
+    syn = Synthesizer(synth.scene, SPOT_TARGET, SETTINGS, body_faces=0, quadrature="mc", pose=pose2)
+    xy = np.array([1.2, 2.0])
+    truth = dataclasses.replace(mean_body("standing", 0.0, 1.7), albedo=np.full(3, 0.5), pose_seed=1)
+    body = pose2(truth, 0)
+    person = Person.from_mesh(body, truth.albedo, SETTINGS.person_samples, "mc")
+    clean = syn.r.render(syn.r.spot_vector(0), person, translation=np.array([*xy, syn.floor_z]),
+                         components=PERSON).image.double()
+    sigma = float(clean.norm()) / 300 / np.sqrt(clean.numel())
+    d = clean + sigma * torch.randn(clean.shape, generator=torch.Generator().manual_seed(2), dtype=torch.float64)
+    w = torch.full_like(d, sigma ** -2)
+    one, two = (read_photograph(syn, syn, None, d, w, ("standing",), facings=1, evaluations=1, xy=xy, variants=v)
+                for v in (1, 2))
+    assert two.chi2["standing"] < 1.5 * d.numel() < 10 * d.numel() < one.chi2["standing"]
+
+
 def test_fused_posterior_limits_and_value():
     """T -> infinity leaves the network's answer, T -> 0 the synthesis', and at T = 1 the log
     posterior is log p - (chi^2 - min chi^2) / 2 exactly."""
