@@ -276,7 +276,7 @@ LEVELS = {"body": "the person's own body, place, facing and height",
           "position": "mean body at the true place; facing, height fitted",
           "none": "nothing known: place, facing, height fitted",
           "fit": "nothing known: the search started at the per-room fit's place",
-          "fitvar": "as the last, each posture scored by the best of the pose variants"}
+          "fitvar": "nothing known: the search from the fit's place, each posture its best pose variant"}
 """Each ``--know`` level as the summary names it."""
 
 
@@ -328,10 +328,58 @@ def summary(args) -> list[str]:
         lines.append(f"| {LEVELS[know]} | {len(rooms)} | {people} | **{np.mean(acc):.1f}%** | {room_interval(acc)} | "
                      f"{np.mean(acc3):.1f}% | {fit_text} | {err_text} | {fit_err} | {chi_text} | "
                      f"{f'{100 * np.mean(short):.0f}%' if short else ''} |")
+    lines += posture_lines(args)
+    lines += lookalike_lines(args)
     lines += fusion_lines(args)
     (args.out / "summary.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     return lines
+
+
+def posture_lines(args) -> list[str]:
+    """Markdown lines: each level's six-way accuracy per true posture (people pooled over rooms)."""
+    from nlos_spotlight.world.body import POSTURES
+
+    lines = ["", "Per true posture (people pooled over the rooms):", "",
+             "| renders told | " + " | ".join(POSTURES) + " |", "|---" * (len(POSTURES) + 1) + "|"]
+    for know in KNOW:
+        paths = sorted(args.out.glob(f"test-*/predictions-{know}.npz"))
+        if not paths:
+            continue
+        z = [np.load(p) for p in paths]
+        true, pred = (np.concatenate([a[k][:args.people or None] for a in z]) for k in ("true_posture", "pred_posture"))
+        lines.append(f"| {LEVELS[know]} | " + " | ".join(
+            f"{100 * np.mean(pred[true == q] == q):.0f}% ({int((true == q).sum())})" for q in range(len(POSTURES))) + " |")
+    return lines
+
+
+def lookalike_lines(args) -> list[str]:
+    """Markdown lines: of each search's wrong answers, how many fit the photograph better than the
+    true posture rendered at the person's own place, facing and height (levels 'body', 'variants',
+    'place'): look-alikes that no better search would reject with that body, against answers
+    the search reached only because it fell short on the truth."""
+    lines = ["", "Wrong answers that fit the photograph better than the true posture at the person's own place "
+             "(chi^2 of the answer below the truth's):", "",
+             "| search | wrong answers | below the person's own body | below the best pose variant | "
+             "below the mean body |", "|---|---|---|---|---|"]
+    for know in ("none", "position", "fit", "fitvar"):
+        wrong, below = 0, {ref: 0 for ref in ("body", "variants", "place")}
+        for path in sorted(args.out.glob(f"test-*/predictions-{know}.npz")):
+            z = np.load(path)
+            refs = {ref: path.parent / f"predictions-{ref}.npz" for ref in below}
+            if "chi2" not in z or len(z["chi2"]) == 0 or not all(r.exists() for r in refs.values()):
+                continue
+            n = min(len(z["true_posture"]), args.people or len(z["true_posture"]))
+            true, chi2 = z["true_posture"][:n], z["chi2"][:n]
+            # chi2_true is per pixel: the row's own true-posture chi^2 gives its pixel count
+            answer = chi2.min(1) / chi2[np.arange(n), true] * z["chi2_true"][:n]
+            miss = chi2.argmin(1) != true
+            wrong += int(miss.sum())
+            for ref, path_ref in refs.items():
+                below[ref] += int((miss & (answer < np.load(path_ref)["chi2_true"][:n])).sum())
+        if wrong:
+            lines.append(f"| {LEVELS[know]} | {wrong} | " + " | ".join(str(v) for v in below.values()) + " |")
+    return lines if len(lines) > 5 else []
 
 
 def fusion_rooms(args, know: str) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
