@@ -223,8 +223,8 @@ def read_photograph(fast: Synthesizer, full: Synthesizer, bank: Bank | None, d: 
         raise ValueError("read_photograph: give a bank, a start or the floor point xy")
     for posture in postures:
         turns = [360.0 * k / facings for k in range(facings)]
-        start = [albedo_fit(d, w, *fast.light(mean_body(posture, f), xy))[0] for f in turns]
-        theta, _ = refine(fast, d, w, posture, xy, turns[int(np.argmin(start))], evaluations, free=free)
+        scan = [albedo_fit(d, w, *fast.light(mean_body(posture, f), xy))[0] for f in turns]
+        theta, _ = refine(fast, d, w, posture, xy, turns[int(np.argmin(scan))], evaluations, free=free)
         body = mean_body(posture, theta[2], theta[3])
         chi2[posture] = min(albedo_fit(d, w, *full.light(dataclasses.replace(body, pose_seed=v), theta[:2]))[0]
                             for v in range(variants))
