@@ -22,6 +22,8 @@ clipped weighted least-squares fit per channel. What else the renders are told, 
 * ``variants``: as ``place``, each posture's best of ``--pose-variants`` pose variants.
 * ``position``: the true floor point only; per posture the facing is scanned over ``--facings``
   directions, then facing and height are fitted (``evaluate.synthesis.refine``).
+* ``posvar``: as ``position``, each posture scored by the best of ``--pose-variants`` pose variants
+  at its fitted facing and height.
 * ``none``: nothing but the room: the place too (``evaluate.synthesis.read_photograph``: a coarse
   bank over the floor, then the same per posture with all four fitted). Also scores the place.
 * ``fit``: as ``none``, the search started at the per-room fit's floor point for the photograph
@@ -71,7 +73,9 @@ from nlos_spotlight.evaluate.synthesis import (Bank, Synthesizer, albedo_fit, fl
 
 COLUMNS = ["room", "know", "spot", "people", "accuracy", "accuracy3", "fit_accuracy", "chi2_true", "chi2_best",
            "error_cm", "fit_error_cm", "renders", "seconds"]
-KNOW = ("body", "build", "place", "variants", "position", "none", "fit", "fitvar")
+KNOW = ("body", "build", "place", "variants", "position", "posvar", "none", "fit", "fitvar")
+SEARCHES = ("position", "posvar", "none", "fit", "fitvar")
+"""The levels that search (the others render at the person's own place, facing and height)."""
 BUILD = ("gender", "weight", "muscle", "proportions")
 """The body model's build phenotypes (``world.body.BodyParams``)."""
 TEMPERATURES = 10.0 ** np.linspace(-1, 4, 51)
@@ -228,14 +232,14 @@ def synthesize_room(args, i: int) -> list[dict]:
         pred, chi_true, chi_best, err, chi_all, xy_all = [], [], [], [], [], []
         for k, spec in enumerate(specs[:args.people or None]):
             w = keep[k].unsqueeze(-1).double() / var[k]
-            if know in ("none", "position", "fit", "fitvar"):
+            if know in SEARCHES:
                 reading = read_photograph(fast, syn, bank, d[k], w, POSTURES, args.facings, args.iterations,
-                                          xy=spec["position"] if know == "position" else None,
+                                          xy=spec["position"] if know.startswith("pos") else None,
                                           start=starts[k] if know.startswith("fit") else None,
-                                          variants=args.pose_variants if know == "fitvar" else 1)
+                                          variants=args.pose_variants if know.endswith("var") else 1)
                 best = reading.chi2
                 xy_all.append(reading.xy)
-                if know != "position":
+                if not know.startswith("pos"):
                     err.append(float(np.linalg.norm(reading.xy - np.asarray(spec["position"]))))
             else:
                 best = {q: min(albedo_fit(d[k], w, *syn.light(params, spec["position"]))[0] for params in bodies)
@@ -274,6 +278,7 @@ LEVELS = {"body": "the person's own body, place, facing and height",
           "place": "mean body at the true place, facing, height",
           "variants": "mean build, best of the pose variants, at the true place, facing, height",
           "position": "mean body at the true place; facing, height fitted",
+          "posvar": "mean body at the true place; facing, height fitted; each posture its best pose variant",
           "none": "nothing known: place, facing, height fitted",
           "fit": "nothing known: the search started at the per-room fit's place",
           "fitvar": "nothing known: the search from the fit's place, each posture its best pose variant"}
@@ -309,7 +314,7 @@ def summary(args) -> list[str]:
             z = np.load(args.out / room / f"predictions-{know}.npz")
             true, pred = (z[k][:args.people or None] for k in ("true_posture", "pred_posture"))
             place = args.out / room / "predictions-place.npz"
-            if know in ("position", "none", "fit", "fitvar") and place.exists():
+            if know in SEARCHES and place.exists():
                 # the search's fit of the true posture is worse than the same body at the person's
                 # own place, facing and height: the search, not the physics, missed it
                 ref = np.load(place)["chi2_true"][:len(true)]
@@ -362,7 +367,7 @@ def lookalike_lines(args) -> list[str]:
              "(chi^2 of the answer below the truth's):", "",
              "| search | wrong answers | below the person's own body | below the best pose variant | "
              "below the mean body |", "|---|---|---|---|---|"]
-    for know in ("none", "position", "fit", "fitvar"):
+    for know in SEARCHES:
         wrong, below = 0, {ref: 0 for ref in ("body", "variants", "place")}
         for path in sorted(args.out.glob(f"test-*/predictions-{know}.npz")):
             z = np.load(path)
@@ -472,7 +477,7 @@ def main() -> None:
     ap.add_argument("--spacing", type=float, default=0.2, help="the coarse bank's floor grid ('none'), m")
     ap.add_argument("--search-faces", type=int, default=300, help="body faces (and samples) of the search's renders")
     ap.add_argument("--iterations", type=int, default=6, help="least-squares evaluations per posture (the searches)")
-    ap.add_argument("--pose-variants", type=int, default=8, help="pose variants tried ('variants', 'fitvar'; the library has 8)")
+    ap.add_argument("--pose-variants", type=int, default=8, help="pose variants tried ('variants', 'posvar', 'fitvar'; the library has 8)")
     ap.add_argument("--people", type=int, default=0, help="first PEOPLE test people of each room (0: all)")
     ap.add_argument("--verbose", action="store_true", help="a line per person")
     ap.add_argument("--seed", type=int, default=0)
