@@ -74,8 +74,11 @@ from nlos_spotlight.evaluate.synthesis import (Bank, Synthesizer, albedo_fit, fl
 COLUMNS = ["room", "know", "spot", "people", "accuracy", "accuracy3", "fit_accuracy", "chi2_true", "chi2_best",
            "error_cm", "fit_error_cm", "renders", "seconds"]
 KNOW = ("body", "build", "place", "variants", "position", "posvar", "none", "fit", "fitvar")
-SEARCHES = ("position", "posvar", "none", "fit", "fitvar")
-"""The levels that search (the others render at the person's own place, facing and height)."""
+SEARCHES = {"position": ("truth", False), "posvar": ("truth", True), "none": ("bank", False),
+            "fit": ("fit", False), "fitvar": ("fit", True)}
+"""The levels that search (the others render at the person's own place, facing and height): where
+the search's floor point comes from ('truth': the person's, kept; 'bank': the coarse bank's cell;
+'fit': the per-room fit's answer) and whether each posture is scored by its best pose variant."""
 BUILD = ("gender", "weight", "muscle", "proportions")
 """The body model's build phenotypes (``world.body.BodyParams``)."""
 TEMPERATURES = 10.0 ** np.linspace(-1, 4, 51)
@@ -96,10 +99,7 @@ def fit_predictions(runs: Path | None, room: str, variant: str, people: int) -> 
     (its run's ``predictions-fit.npz``), or None without ``--fit-runs``."""
     if runs is None:
         return None
-    path = run_dir(runs / room, variant) / "predictions-fit.npz"
-    if not path.exists():
-        raise SystemExit(f"--fit-runs {runs}: no {path} (run unseen_room_fit.py for {room})")
-    z = np.load(path)
+    z = fit_run_arrays(runs, room, variant)
     ok = z["true_posture"][:people] == z["pred_posture"][:people]
     return 100 * float(ok.mean()), 100 * float(np.linalg.norm(z["pred_xy"] - z["true_xy"], axis=1)[:people].mean())
 
@@ -225,21 +225,22 @@ def synthesize_room(args, i: int) -> list[dict]:
     fast = room_synthesizer(scene_dir, cfg, face, faces=args.search_faces)
     rows = []
     starts = fit_places(args.fit_runs, room, args.variant, test, specs) \
-        if {"fit", "fitvar"} & set(args.know) else None
+        if any(SEARCHES.get(know, (None, False))[0] == "fit" for know in args.know) else None
     for know in args.know:
         t0, r0, f0 = time.perf_counter(), syn.renders, fast.renders
-        bank = Bank(fast, floor_cells(fast.scene, args.spacing), 4) if know == "none" else None
+        origin, variants = SEARCHES.get(know, (None, False))
+        bank = Bank(fast, floor_cells(fast.scene, args.spacing), 4) if origin == "bank" else None
         pred, chi_true, chi_best, err, chi_all, xy_all = [], [], [], [], [], []
         for k, spec in enumerate(specs[:args.people or None]):
             w = keep[k].unsqueeze(-1).double() / var[k]
-            if know in SEARCHES:
+            if origin is not None:
                 reading = read_photograph(fast, syn, bank, d[k], w, POSTURES, args.facings, args.iterations,
-                                          xy=spec["position"] if know.startswith("pos") else None,
-                                          start=starts[k] if know.startswith("fit") else None,
-                                          variants=args.pose_variants if know.endswith("var") else 1)
+                                          xy=spec["position"] if origin == "truth" else None,
+                                          start=starts[k] if origin == "fit" else None,
+                                          variants=args.pose_variants if variants else 1)
                 best = reading.chi2
                 xy_all.append(reading.xy)
-                if not know.startswith("pos"):
+                if origin != "truth":
                     err.append(float(np.linalg.norm(reading.xy - np.asarray(spec["position"]))))
             else:
                 best = {q: min(albedo_fit(d[k], w, *syn.light(params, spec["position"]))[0] for params in bodies)
@@ -428,7 +429,7 @@ def fusion_lines(args) -> list[str]:
     accuracy over temperatures."""
     if args.fit_runs is None:
         return []
-    return [line for know in ("fit", "fitvar") for line in fusion_level(args, know)]
+    return [line for know, (origin, _) in SEARCHES.items() if origin == "fit" for line in fusion_level(args, know)]
 
 
 def fusion_level(args, know: str) -> list[str]:

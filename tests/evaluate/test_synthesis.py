@@ -41,10 +41,18 @@ def synth(small_corner):
 
 def photo(syn: Synthesizer, params, xy) -> torch.Tensor:
     """The person's light as the renderer makes it (nlos + nlos_ambient) at its own albedo."""
-    body = pose(params, 0)
+    body = syn.pose(params, 0)
     person = Person.from_mesh(body, params.albedo, SETTINGS.person_samples, "mc")
     out = syn.r.render(syn.r.spot_vector(0), person, translation=np.array([*xy, syn.floor_z]), components=PERSON)
     return out.image.double()
+
+
+def noisy(clean: torch.Tensor, snr: float, gen: torch.Generator) -> tuple[torch.Tensor, torch.Tensor]:
+    """(photograph, weights): ``clean`` plus white noise at a whole-image SNR of ``snr``, and the
+    inverse noise variance."""
+    sigma = float(clean.norm()) / snr / np.sqrt(clean.numel())
+    d = clean + sigma * torch.randn(clean.shape, generator=gen, dtype=torch.float64)
+    return d, torch.full_like(d, sigma ** -2)
 
 
 def test_light_is_affine_in_the_albedo(synth):
@@ -112,10 +120,8 @@ def test_read_photograph_names_the_posture_and_place(synth):
     gen = torch.Generator().manual_seed(0)
     for posture, xy in (("hands_90", np.array([1.4, 1.7])), ("sitting", np.array([1.0, 2.3]))):
         truth = dataclasses.replace(mean_body(posture, 200.0, 1.75), albedo=np.full(3, 0.5))
-        clean = photo(synth, truth, xy)
-        sigma = float(clean.norm()) / 100 / np.sqrt(clean.numel())
-        d = clean + sigma * torch.randn(clean.shape, generator=gen, dtype=torch.float64)
-        reading = read_photograph(fast, synth, bank, d, torch.full_like(d, sigma ** -2),
+        d, w = noisy(photo(synth, truth, xy), 100, gen)
+        reading = read_photograph(fast, synth, bank, d, w,
                                   ("standing", "hands_90", "sitting"), facings=4, evaluations=8)
         assert reading.posture == posture, reading.chi2
         assert np.linalg.norm(reading.xy - xy) < 0.3 * np.sqrt(2)
@@ -128,10 +134,7 @@ def test_read_photograph_from_a_given_start(synth):
                        quadrature="mc", pose=pose)
     xy = np.array([1.2, 2.0])
     truth = dataclasses.replace(mean_body("sitting", 120.0, 1.7), albedo=np.full(3, 0.5))
-    clean = photo(synth, truth, xy)
-    sigma = float(clean.norm()) / 100 / np.sqrt(clean.numel())
-    d = clean + sigma * torch.randn(clean.shape, generator=torch.Generator().manual_seed(1), dtype=torch.float64)
-    w = torch.full_like(d, sigma ** -2)
+    d, w = noisy(photo(synth, truth, xy), 100, torch.Generator().manual_seed(1))
     start = xy + np.array([0.1, -0.1])
     reading = read_photograph(fast, synth, None, d, w, ("standing", "sitting", "crouching"), facings=4,
                               evaluations=10, start=start)
@@ -152,13 +155,7 @@ def test_read_photograph_scores_the_best_pose_variant(synth):
     syn = Synthesizer(synth.scene, SPOT_TARGET, SETTINGS, body_faces=0, quadrature="mc", pose=pose2)
     xy = np.array([1.2, 2.0])
     truth = dataclasses.replace(mean_body("standing", 0.0, 1.7), albedo=np.full(3, 0.5), pose_seed=1)
-    body = pose2(truth, 0)
-    person = Person.from_mesh(body, truth.albedo, SETTINGS.person_samples, "mc")
-    clean = syn.r.render(syn.r.spot_vector(0), person, translation=np.array([*xy, syn.floor_z]),
-                         components=PERSON).image.double()
-    sigma = float(clean.norm()) / 300 / np.sqrt(clean.numel())
-    d = clean + sigma * torch.randn(clean.shape, generator=torch.Generator().manual_seed(2), dtype=torch.float64)
-    w = torch.full_like(d, sigma ** -2)
+    d, w = noisy(photo(syn, truth, xy), 300, torch.Generator().manual_seed(2))
     one, two = (read_photograph(syn, syn, None, d, w, ("standing",), facings=1, evaluations=1, xy=xy, variants=v)
                 for v in (1, 2))
     assert two.chi2["standing"] < 1.5 * d.numel() < 10 * d.numel() < one.chi2["standing"]
