@@ -27,6 +27,13 @@ fitted rooms (``fitted_rooms_transfer.py``; refused if it trained in this room) 
 more simulated people of the fit (the split's test people), a tighter estimate than the room's 30
 test people.
 
+The baselines of the paper's Tables 1-2, each given the room's simulation too: ``+adaptive``,
+``+flash``, ``+ambient``, ``+center`` train and test under that fixed policy instead of the fitted
+spot, and ``+chandran``, ``+tancik``, ``+dlnlos`` train that network instead of the light ResNet
+(e.g. ``16+e120+adaptive`` AL + ResNet, ``16+e120+chandran`` the fitted spot + CNN, ``16+e120+adaptive+chandran``
+Chandran & Jayasuriya, ``16+e120+flash+tancik``, ``16+e120+ambient+dlnlos``). The summary then
+tables every method on the rooms fitted with all of them, with the issue's margins.
+
 Writes ``--out``/room-fit-FIRST-LAST.csv (room, variant, spot, people, posture_accuracy, posture3_accuracy, error_cm,
 mean_answer_cm, test_people, render_s, train_s) and per room its data, run and predictions.
 Resumable: a room's dataset resumes, a trained room keeps ``best.pt``.
@@ -98,18 +105,31 @@ class Variant:
     init: bool = False
     """Start from ``--init``'s weights and input (a network trained in other rooms,
     ``fitted_rooms_transfer.py``) instead of random weights."""
+    light: str = "fit"
+    """The room's illumination for training and test photographs: 'fit' (the spot chosen from the
+    simulated people, ``nlos fit``'s), or a fixed policy of a baseline (:data:`LIGHTS`)."""
+    arch: str = "resnet18"
+    """The network: the seen-rooms recipe's light ResNet, or a baseline's (:data:`ARCHS`)."""
 
     def describe(self) -> str:
         what = f"{self.frames}-frame burst" if self.frames > 1 else "one frame"
-        return (what + ", albedo augmentation" * self.albedo + (f", {self.epochs:g} epochs" if self.epochs else "")
+        return ((f"{ARCHS[self.arch]}, " if self.arch != "resnet18" else "")
+                + (f"{LIGHTS[self.light]}, " if self.light != "fit" else "") + what + ", albedo augmentation" * self.albedo + (f", {self.epochs:g} epochs" if self.epochs else "")
                 + (f", weight decay {self.weight_decay:g}" if self.weight_decay is not None else "")
                 + (f", people of {self.renders} renders" if self.renders > 1 else "")
                 + (f", training seed +{self.train_seed}" if self.train_seed else "")
                 + (", started from a network of other rooms" if self.init else ""))
 
 
-VARIANT_HELP = ("FRAMES[+albedo][+eEPOCHS][+pPEOPLE][+wdDECAY][+xRENDERS][+sSEED][+init] (e.g. 16+albedo, "
-                "16+e120, 16+e120+p1396, 16+wd1e-3, 16+e120+x2, 16+e120+x2+s1, 16+e120+init)")
+LIGHTS = {"adaptive": "Adaptive Lighting spot", "center": "center spot", "flash": "flash", "ambient": "projector off"}
+"""'+NAME': train and test under this fixed policy (``lighting.POLICIES``) instead of the fitted spot."""
+
+ARCHS = {"chandran": "Chandran's CNN", "tancik": "Tancik's network", "dlnlos": "DL-NLOS's network"}
+"""'+NAME': this baseline network (``models.baselines``) instead of the light ResNet."""
+
+VARIANT_HELP = ("FRAMES[+albedo][+eEPOCHS][+pPEOPLE][+wdDECAY][+xRENDERS][+sSEED][+init][+LIGHT][+ARCH] (e.g. "
+                "16+albedo, 16+e120, 16+e120+p1396, 16+wd1e-3, 16+e120+x2, 16+e120+x2+s1, 16+e120+init, "
+                f"16+e120+adaptive+chandran; LIGHT: {', '.join(LIGHTS)}; ARCH: {', '.join(ARCHS)})")
 
 
 def _number(text: str, kind: type) -> float | None:
@@ -126,13 +146,18 @@ def parse_variant(spec: str) -> Variant:
     seed +N, '+init' the weights of ``--init`` (e.g. '16+albedo', '16+e120+p1396', '16+e120+x2+s1')."""
     frames, *extra = spec.split("+")
     v = Variant(int(frames) if frames.isdigit() else 0, False, None)
-    kind = lambda e: e if e in ("albedo", "init") else "wd" if e.startswith("wd") else e[:1]
+    kind = lambda e: (e if e in ("albedo", "init") else "light" if e in LIGHTS else "arch" if e in ARCHS
+                      else "wd" if e.startswith("wd") else e[:1])
     ok = v.frames >= 1 and len({kind(e) for e in extra}) == len(extra)  # each option at most once
     for e in extra:
         if e == "albedo":
             v.albedo = True
         elif e == "init":
             v.init = True
+        elif e in LIGHTS:
+            v.light = e
+        elif e in ARCHS:
+            v.arch = e
         elif e.startswith("wd"):
             v.weight_decay = _number(e[2:], float)
             ok &= v.weight_decay is not None
@@ -143,6 +168,7 @@ def parse_variant(spec: str) -> Variant:
                 setattr(v, {"e": "epochs", "p": "people", "x": "renders", "s": "train_seed"}[e[0]], n)
         else:
             ok = False
+    ok &= not (v.init and v.arch != "resnet18")  # --init holds a light ResNet's weights
     if not ok:
         raise SystemExit(f"--variants: expected {VARIANT_HELP}, got {spec!r}")
     return v
@@ -259,7 +285,9 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: 
     from nlos_spotlight.train.loop import Trainer
 
     v = parse_variant(spec)
-    cfg = seen_config(1, args.seed + v.train_seed, noise=True, policy="oracle")
+    # 'fit': the oracle over the fitted room's full-transport simulated people (none of the test people)
+    cfg = seen_config(1, args.seed + v.train_seed, noise=True, policy="oracle" if v.light == "fit" else v.light,
+                      arch=v.arch)
     cfg = dataclasses.replace(cfg, sensor={"burst_frames": v.frames} if v.frames > 1 else {}, albedo_augment=v.albedo)
     if v.weight_decay is not None:
         cfg = dataclasses.replace(cfg, weight_decay=v.weight_decay)
@@ -290,17 +318,24 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: 
         tr.net.load_state_dict(init["net"])
     train_validated(tr, run)
     train_s = first_seconds(run / "train_seconds.json", t1)  # a rescored run reports its training
-    (y, _, _), = tr.illuminations([tr.scenes[0]], train=False)
-    oracle = room_lights([test], "oracle", 0)[0].spot_vector(len(test.faces))
-    # the room's test people under both spots; "heldout": 100 more simulated people of the fit (a
-    # tighter estimate of the same network in the same room than 30 test people give)
-    lights = {"fit": (test, (y, "spot")), "oracle": (test, (oracle, "spot")), "heldout": (split.test, (y, "spot"))}
+    (y, mode, _), = tr.illuminations([tr.scenes[0]], train=False)
+    # the room's test people under the network's illumination and, for the fitted spot, under the
+    # test people's oracle spot; "heldout": 100 more simulated people of the fit (a tighter estimate
+    # of the same network in the same room than 30 test people give)
+    lights = {"fit": (test, (y, mode)), "heldout": (split.test, (y, mode))}
+    if v.light == "fit":
+        lights["oracle"] = (test, (room_lights([test], "oracle", 0)[0].spot_vector(len(test.faces)), "spot"))
+    else:  # a fixed policy reads the scan only: the test room's choice must be the training room's
+        ill = room_lights([test], v.light, args.seed)[0]
+        if ill.mode != mode or (y is not None and ill.face != int(y.argmax())):
+            raise SystemExit(f"{Path(test.scene_dir).name}: {v.light} chose differently in the fitted room")
     mean = split.pool.target.mean(0)
     rows = []
     for name, (people, light) in lights.items():
         res = score_rooms(tr.net, cfg.net, tr.sensor, [people], [light], True, args.seed)
         p = res["per_person"]
-        rows.append(dict(room=Path(test.scene_dir).name, variant=spec, spot=f"{name}:{int(light[0].argmax())}",
+        where = int(light[0].argmax()) if light[1] == "spot" else light[1]
+        rows.append(dict(room=Path(test.scene_dir).name, variant=spec, spot=f"{name}:{where}",
                          people=split.pool.num_samples, posture_accuracy=round(res["posture_accuracy"], 2),
                          posture3_accuracy=round(res["posture3_accuracy"], 2), error_cm=round(res["error_cm"], 2),
                          mean_answer_cm=round(100 * float((people.target - mean).norm(dim=1).mean()), 2),
@@ -341,6 +376,9 @@ def main() -> None:
     ap.add_argument("--summary-only", action="store_true", help="only the summary of the rooms fitted so far")
     ap.add_argument("--pair", nargs=2, action="append", default=[], metavar=("BASE", "OTHER"),
                     help="summary: OTHER - BASE paired by room on the rooms fitted with both variants (repeatable)")
+    ap.add_argument("--ensemble", nargs="+", default=[], metavar="VARIANT",
+                    help="summary: the networks of these variants (e.g. two training seeds) averaged, on the rooms "
+                         "where all were scored: posture probabilities and positions averaged")
     args = ap.parse_args()
     if args.summary_only:
         return summary(args)
@@ -423,15 +461,137 @@ def summary(args) -> None:
             lines.append(f"| ideal observer, nuisances fitted, {frames} frame(s) ({len(acc)} people) | {len(rooms)} | "
                          f"{np.mean(acc):.1f}% | | | | | |")
     for (people, variant), rows in sorted(fits.items()):
-        done = sorted({room for room, kind in rows if kind == "fit"})
+        done = sorted({room for room, kind in rows if kind == "fit" and (room, "oracle") in rows})
+        if not done:  # a baseline's light: scored under its own illumination only
+            continue
         same = sum(rows[r, "fit"]["spot"].split(":")[1] == rows[r, "oracle"]["spot"].split(":")[1] for r in done)
         lines.append(f"{people} people, variant {variant}: the spot chosen from the simulated people is the test "
                      f"people's oracle in {same} of {len(done)} rooms.")
-    lines += people_curve(fits) + variant_pairs(fits, args.pair)
+    lines += people_curve(fits) + variant_pairs(fits, args.pair) + methods_table(fits, args.out)
+    lines += ensembles(args.out, rooms, args.ensemble)
     text = "\n".join(lines)
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "summary.md").write_text(text + "\n")
+
+
+METHOD_NAMES = {("fit", "resnet18"): "Ours (fitted spot + ResNet)", ("adaptive", "resnet18"): "AL + ResNet",
+                ("fit", "chandran"): "fitted spot + CNN (the paper's IEN + CNN)",
+                ("adaptive", "chandran"): "Chandran & Jayasuriya (AL + CNN)",
+                ("flash", "tancik"): "Tancik et al. (flash + CNN)", ("ambient", "dlnlos"): "DL-NLOS (ambient + CNN)"}
+"""(light, network) -> the name of the paper's Tables 1-2 row it reproduces, fitted in the room."""
+
+
+def methods_table(fits: dict, out: Path) -> list[str]:
+    """Every method fitted in the same rooms with the same people, capture and epochs (variants that
+    differ only in '+LIGHT' / '+ARCH'), on the rooms scored with all of them: the paper's Tables 1-2
+    with every method given the room's simulation, the issue's goals on them, and six-way per
+    posture from the runs' predictions under ``out``."""
+    strip = lambda v: "+".join(e for e in v.split("+") if e not in LIGHTS and e not in ARCHS)
+    groups = {}
+    for (people, variant), rows in fits.items():
+        groups.setdefault((people, strip(variant)), {})[variant] = rows
+    lines = []
+    for (people, base), variants in sorted(groups.items()):
+        if len(variants) < 2 or base not in variants:
+            continue
+        common = sorted(set.intersection(*(scored_rooms(rows) for rows in variants.values())))
+        if not common:
+            continue
+        v0 = parse_variant(base)
+        lines += ["", f"Every method fitted in the same rooms ({len(common)}: {', '.join(common)}) on the same "
+                      f"{people} simulated people a room, {v0.describe()}; six-way and error on the rooms' 30 test "
+                      "people / 100 more simulated people; paired: the method minus ours on the simulated people "
+                      "(mean +- standard error over the rooms):",
+                  "| method | six-way (test) | six-way (simulated) | error (test) | error (simulated) | paired six-way | "
+                  "paired error |", "|---|---|---|---|---|---|---|"]
+        mean = lambda rows, kind, k: float(np.mean([float(rows[r, kind][k]) for r in common]))
+        order = list(METHOD_NAMES)
+        key = lambda v: (lambda lv: (order.index(lv) if lv in order else len(order), lv))(
+            (parse_variant(v).light, parse_variant(v).arch))
+        for variant in sorted(variants, key=key):
+            rows, pv = variants[variant], parse_variant(variant)
+            name = METHOD_NAMES.get((pv.light, pv.arch), f"{pv.light} + {pv.arch}")
+            pair = lambda k, unit="": ("" if variant == base
+                                       else paired_change(variants[base], rows, common, "heldout", k) + unit)
+            lines.append(f"| {name} | {mean(rows, 'fit', 'posture_accuracy'):.1f}% | "
+                         f"{mean(rows, 'heldout', 'posture_accuracy'):.1f}% | {mean(rows, 'fit', 'error_cm'):.1f} cm | "
+                         f"{mean(rows, 'heldout', 'error_cm'):.1f} cm | {pair('posture_accuracy')} | "
+                         f"{pair('error_cm', ' cm')} |")
+        lines += method_goals(variants, base, common, mean)
+        lines += posture_table(out, common, sorted(variants, key=key))
+    return lines
+
+
+def ensembles(out: Path, rooms: list[str], variants: list[str]) -> list[str]:
+    """``--ensemble``: per room and kind of people, each network alone and the networks' average
+    (posture probabilities and positions averaged), from the runs' predictions-*.npz."""
+    if len(variants) < 2:
+        return []
+    runs = lambda r: [run_dir(out / r, v) for v in variants]
+    done = [r for r in rooms if all((d / "predictions-heldout.npz").exists() for d in runs(r))]
+    lines = ["", f"Ensemble of {' and '.join(variants)} on {len(done)} rooms: six-way / error of each network alone "
+                 "(their mean) and of their average", "| room | people | alone | ensemble |", "|---|---|---|---|"]
+    gains = {"fit": [], "heldout": []}
+    for r in done:
+        for kind, who in (("fit", "test"), ("heldout", "simulated")):
+            z = [np.load(d / f"predictions-{kind}.npz") for d in runs(r)]
+            t, xy = z[0]["true_posture"], z[0]["true_xy"]
+            if any("posture_prob" not in q or not np.array_equal(q["true_posture"], t) for q in z):
+                raise SystemExit(f"--ensemble: {r}'s {kind} predictions differ in people or lack probabilities "
+                                 "(rescore the runs)")
+            acc = lambda pred: 100 * float(np.mean(pred == t))
+            err = lambda pred: 100 * float(np.linalg.norm(pred - xy, axis=1).mean())
+            alone = (np.mean([acc(q["pred_posture"]) for q in z]), np.mean([err(q["pred_xy"]) for q in z]))
+            both = (acc(np.mean([q["posture_prob"] for q in z], 0).argmax(1)), err(np.mean([q["pred_xy"] for q in z], 0)))
+            gains[kind].append(both[0] - alone[0])
+            lines.append(f"| {r} | {who} ({len(t)}) | {alone[0]:.1f}% / {alone[1]:.1f} cm | "
+                         f"{both[0]:.1f}% / {both[1]:.1f} cm |")
+    for kind, who in (("fit", "test"), ("heldout", "simulated")):
+        g = np.array(gains[kind])
+        if len(g) > 1:
+            lines.append(f"Ensemble minus alone, six-way on the {who} people: {g.mean():+.1f} +- "
+                         f"{g.std(ddof=1) / np.sqrt(len(g)):.1f} points (mean +- standard error over {len(g)} rooms).")
+    return lines
+
+
+def posture_table(out: Path, rooms: list[str], variants: list[str]) -> list[str]:
+    """Six-way per true posture of each variant (the paper's Table 1 columns), the rooms' test and
+    simulated people pooled, from each run's predictions-fit.npz and predictions-heldout.npz."""
+    from nlos_spotlight.world.body import POSTURES
+
+    lines = ["", f"Six-way per posture, the {len(rooms)} rooms' test and simulated people pooled:",
+             "| method | " + " | ".join(POSTURES) + " | all |", "|---" * (len(POSTURES) + 2) + "|"]
+    for variant in variants:
+        files = [run_dir(out / r, variant) / f"predictions-{k}.npz" for r in rooms for k in ("fit", "heldout")]
+        if not all(f.exists() for f in files):
+            continue
+        t, q = (np.concatenate([np.load(f)[k] for f in files]) for k in ("true_posture", "pred_posture"))
+        pv = parse_variant(variant)
+        cells = [f"{100 * np.mean(q[t == c] == c):.1f}" if np.any(t == c) else "" for c in range(len(POSTURES))]
+        lines.append(f"| {METHOD_NAMES.get((pv.light, pv.arch), f'{pv.light} + {pv.arch}')} | " + " | ".join(cells)
+                     + f" | {100 * np.mean(t == q):.1f} |")
+    return lines
+
+
+def method_goals(variants: dict, base: str, rooms: list[str], mean) -> list[str]:
+    """The issue's margins on fitted rooms: ours' error over AL + ResNet's (goal at most 0.57x) and
+    ours' six-way minus the fitted spot + CNN's (goal at least 5 points), test and simulated people."""
+    find = lambda light, arch: next((variants[v] for v in variants if (parse_variant(v).light, parse_variant(v).arch)
+                                     == (light, arch)), None)
+    ours, al, cnn = variants[base], find("adaptive", "resnet18"), find("fit", "chandran")
+    lines = []
+    for kind, who in (("fit", "test"), ("heldout", "simulated")):
+        parts = []
+        if al is not None:
+            parts.append(f"error {mean(ours, kind, 'error_cm') / mean(al, kind, 'error_cm'):.2f}x AL + ResNet's "
+                         "(goal at most 0.57x)")
+        if cnn is not None:
+            parts.append(f"six-way {mean(ours, kind, 'posture_accuracy') - mean(cnn, kind, 'posture_accuracy'):+.1f} "
+                         "points over the fitted spot + CNN (goal at least +5)")
+        if parts:
+            lines.append(f"Ours on the {who} people: " + "; ".join(parts) + ".")
+    return lines
 
 
 def room_interval(accuracy: list[float]) -> str:
