@@ -16,7 +16,7 @@ person's light under the oracle spot, sum |nlos_ambient| / sum |nlos_oracle| ("a
 
 The SNR and the center choice are the package's (``nlos_spotlight.lighting.snr``, ``.center``).
 
-    python benchmarks/spot_matters.py --data DIR [--split test]
+    python benchmarks/spot_matters.py --data DIR [--split test] [--rooms N]
 """
 
 from __future__ import annotations
@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from nlos_spotlight.data.store import read_manifest
+from nlos_spotlight.errors import NlosError
 from nlos_spotlight.lighting.center import center_candidate
 from nlos_spotlight.lighting.snr import scene_snr
 from nlos_spotlight.scene import load_scene
@@ -57,15 +59,29 @@ def scene_snrs(scene_dir: Path) -> dict:
             "ambient_light_ratio": ambient_light_ratio(scene_dir, int(mean_t.argmax()))}
 
 
+def split_scenes(root: Path, split: str, rooms: int = 0) -> list[Path]:
+    """The split's scenes (the first ``rooms``; 0: all): the manifest's, or for a dataset generated
+    in shards and not merged (``nlos generate --shard I/N``), every finished scene folder."""
+    if (root / "manifest.json").exists():
+        ids = [s["id"] for s in read_manifest(root)["splits"].get(split, [])]
+    else:
+        ids = sorted(d.name for d in (root / "scenes").glob(f"{split}-*") if (d / "done.json").exists())
+    if not ids:
+        raise SystemExit(f"{root}: no finished {split} scenes")
+    return [root / "scenes" / i for i in ids[:rooms or None]]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", required=True)
     ap.add_argument("--split", default="test")
+    ap.add_argument("--rooms", type=int, default=0, help="only the split's first ROOMS scenes (0: all)")
     ap.add_argument("--json", help="also write the numbers here")
     args = ap.parse_args()
-    root = Path(args.data)
-    manifest = json.loads((root / "manifest.json").read_text())
-    rows = {s["id"]: scene_snrs(root / "scenes" / s["id"]) for s in manifest["splits"][args.split]}
+    try:
+        rows = {d.name: scene_snrs(d) for d in split_scenes(Path(args.data), args.split, args.rooms)}
+    except NlosError as exc:
+        raise SystemExit(str(exc)) from None
     print(f"{'scene':12s} {'family':18s} {'T':>4s} {'oracle':>9s} {'center':>9s} {'random':>9s} {'ambient':>9s} "
           f"{'or/cen':>7s} {'or/rnd':>7s} {'amb/or light':>12s}")
     for sid, r in rows.items():

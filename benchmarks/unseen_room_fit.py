@@ -114,7 +114,8 @@ class Variant:
     def describe(self) -> str:
         what = f"{self.frames}-frame burst" if self.frames > 1 else "one frame"
         return ((f"{ARCHS[self.arch]}, " if self.arch != "resnet18" else "")
-                + (f"{LIGHTS[self.light]}, " if self.light != "fit" else "") + what + ", albedo augmentation" * self.albedo + (f", {self.epochs:g} epochs" if self.epochs else "")
+                + (f"{LIGHTS[self.light]}, " if self.light != "fit" else "") + what
+                + ", albedo augmentation" * self.albedo + (f", {self.epochs:g} epochs" if self.epochs else "")
                 + (f", weight decay {self.weight_decay:g}" if self.weight_decay is not None else "")
                 + (f", people of {self.renders} renders" if self.renders > 1 else "")
                 + (f", training seed +{self.train_seed}" if self.train_seed else "")
@@ -484,9 +485,9 @@ METHOD_NAMES = {("fit", "resnet18"): "Ours (fitted spot + ResNet)", ("adaptive",
 
 def methods_table(fits: dict, out: Path) -> list[str]:
     """Every method fitted in the same rooms with the same people, capture and epochs (variants that
-    differ only in '+LIGHT' / '+ARCH'), on the rooms scored with all of them: the paper's Tables 1-2
-    with every method given the room's simulation, the issue's goals on them, and six-way per
-    posture from the runs' predictions under ``out``."""
+    differ only in '+LIGHT' / '+ARCH'): the paper's Tables 1-2 with every method given the room's
+    simulation, each method on the rooms it was fitted in beside ours on the same rooms (paired),
+    the issue's margins, and six-way per posture from the runs' predictions under ``out``."""
     strip = lambda v: "+".join(e for e in v.split("+") if e not in LIGHTS and e not in ARCHS)
     groups = {}
     for (people, variant), rows in fits.items():
@@ -495,31 +496,66 @@ def methods_table(fits: dict, out: Path) -> list[str]:
     for (people, base), variants in sorted(groups.items()):
         if len(variants) < 2 or base not in variants:
             continue
-        common = sorted(set.intersection(*(scored_rooms(rows) for rows in variants.values())))
-        if not common:
+        ours = variants[base]
+        rooms = {v: sorted(scored_rooms(rows) & scored_rooms(ours)) for v, rows in variants.items()}
+        rooms[base] = sorted(set().union(*(r for v, r in rooms.items() if v != base)))
+        if not rooms[base]:
             continue
-        v0 = parse_variant(base)
-        lines += ["", f"Every method fitted in the same rooms ({len(common)}: {', '.join(common)}) on the same "
-                      f"{people} simulated people a room, {v0.describe()}; six-way and error on the rooms' 30 test "
-                      "people / 100 more simulated people; paired: the method minus ours on the simulated people "
-                      "(mean +- standard error over the rooms):",
-                  "| method | six-way (test) | six-way (simulated) | error (test) | error (simulated) | paired six-way | "
-                  "paired error |", "|---|---|---|---|---|---|---|"]
-        mean = lambda rows, kind, k: float(np.mean([float(rows[r, kind][k]) for r in common]))
-        order = list(METHOD_NAMES)
-        key = lambda v: (lambda lv: (order.index(lv) if lv in order else len(order), lv))(
-            (parse_variant(v).light, parse_variant(v).arch))
-        for variant in sorted(variants, key=key):
-            rows, pv = variants[variant], parse_variant(variant)
-            name = METHOD_NAMES.get((pv.light, pv.arch), f"{pv.light} + {pv.arch}")
-            pair = lambda k, unit="": ("" if variant == base
-                                       else paired_change(variants[base], rows, common, "heldout", k) + unit)
-            lines.append(f"| {name} | {mean(rows, 'fit', 'posture_accuracy'):.1f}% | "
-                         f"{mean(rows, 'heldout', 'posture_accuracy'):.1f}% | {mean(rows, 'fit', 'error_cm'):.1f} cm | "
-                         f"{mean(rows, 'heldout', 'error_cm'):.1f} cm | {pair('posture_accuracy')} | "
-                         f"{pair('error_cm', ' cm')} |")
-        lines += method_goals(variants, base, common, mean)
-        lines += posture_table(out, common, sorted(variants, key=key))
+        lines += ["", f"Every method fitted in the same rooms on the same {people} simulated people a room, "
+                      f"{parse_variant(base).describe()}: six-way and error on the rooms' 30 test people and 100 "
+                      "more simulated people, each method on the rooms it was fitted in; paired: the method minus "
+                      "ours on those rooms, test / simulated people (mean +- standard error over the rooms):",
+                  "| method | rooms | six-way (test) | six-way (simulated) | error (test) | error (simulated) | "
+                  "paired six-way | paired error |", "|---|---|---|---|---|---|---|---|"]
+        mean = lambda rows, rs, kind, k: float(np.mean([float(rows[r, kind][k]) for r in rs]))
+        for variant in sorted(variants, key=method_order):
+            rows, rs = variants[variant], rooms[variant]
+            if not rs:
+                continue
+            pair = lambda k, unit="": "" if variant == base else " / ".join(
+                paired_change(ours, rows, rs, kind, k) + unit for kind in ("fit", "heldout"))
+            lines.append(f"| {method_name(variant)} | {len(rs)} | {mean(rows, rs, 'fit', 'posture_accuracy'):.1f}% | "
+                         f"{mean(rows, rs, 'heldout', 'posture_accuracy'):.1f}% | "
+                         f"{mean(rows, rs, 'fit', 'error_cm'):.1f} cm | {mean(rows, rs, 'heldout', 'error_cm'):.1f} cm | "
+                         f"{pair('posture_accuracy')} | {pair('error_cm', ' cm')} |")
+        lines += method_goals(variants, base, rooms, mean)
+        lines += posture_table(out, rooms, sorted(variants, key=method_order))
+    return lines
+
+
+def method_order(variant: str) -> tuple:
+    """Sort key: the rows of :data:`METHOD_NAMES` in its order, then any other light and network."""
+    v = parse_variant(variant)
+    order = list(METHOD_NAMES)
+    return (order.index((v.light, v.arch)) if (v.light, v.arch) in order else len(order), v.light, v.arch)
+
+
+def method_name(variant: str) -> str:
+    """The paper's name for a variant's (light, network), else 'light + network'."""
+    v = parse_variant(variant)
+    return METHOD_NAMES.get((v.light, v.arch), f"{LIGHTS.get(v.light, 'fitted spot')} + {ARCHS.get(v.arch, 'ResNet')}")
+
+
+def method_goals(variants: dict, base: str, rooms: dict, mean) -> list[str]:
+    """The issue's margins on fitted rooms, each on the rooms fitted with both: ours' error over
+    AL + ResNet's (goal at most 0.57x) and ours' six-way minus the fitted spot + CNN's (goal at
+    least 5 points), on test and simulated people."""
+    find = lambda light, arch: next((v for v in variants if (parse_variant(v).light, parse_variant(v).arch)
+                                     == (light, arch)), None)
+    ours, al, cnn = variants[base], find("adaptive", "resnet18"), find("fit", "chandran")
+    lines = []
+    for kind, who in (("fit", "test"), ("heldout", "simulated")):
+        parts = []
+        if al is not None and rooms[al]:
+            ratio = mean(ours, rooms[al], kind, "error_cm") / mean(variants[al], rooms[al], kind, "error_cm")
+            parts.append(f"error {ratio:.2f}x AL + ResNet's ({len(rooms[al])} rooms; goal at most 0.57x)")
+        if cnn is not None and rooms[cnn]:
+            gain = (mean(ours, rooms[cnn], kind, "posture_accuracy")
+                    - mean(variants[cnn], rooms[cnn], kind, "posture_accuracy"))
+            parts.append(f"six-way {gain:+.1f} points over the fitted spot + CNN ({len(rooms[cnn])} rooms; goal at "
+                         "least +5)")
+        if parts:
+            lines.append(f"Ours on the {who} people: " + "; ".join(parts) + ".")
     return lines
 
 
@@ -555,42 +591,22 @@ def ensembles(out: Path, rooms: list[str], variants: list[str]) -> list[str]:
     return lines
 
 
-def posture_table(out: Path, rooms: list[str], variants: list[str]) -> list[str]:
-    """Six-way per true posture of each variant (the paper's Table 1 columns), the rooms' test and
-    simulated people pooled, from each run's predictions-fit.npz and predictions-heldout.npz."""
+def posture_table(out: Path, rooms: dict, variants: list[str]) -> list[str]:
+    """Six-way per true posture of each variant (the paper's Table 1 columns) on its rooms
+    (``rooms[variant]``), their test and simulated people pooled, from each run's
+    predictions-fit.npz and predictions-heldout.npz."""
     from nlos_spotlight.world.body import POSTURES
 
-    lines = ["", f"Six-way per posture, the {len(rooms)} rooms' test and simulated people pooled:",
-             "| method | " + " | ".join(POSTURES) + " | all |", "|---" * (len(POSTURES) + 2) + "|"]
+    lines = ["", "Six-way per posture (%), each method on its rooms, their test and simulated people pooled:",
+             "| method | rooms | " + " | ".join(POSTURES) + " | all |", "|---" * (len(POSTURES) + 3) + "|"]
     for variant in variants:
-        files = [run_dir(out / r, variant) / f"predictions-{k}.npz" for r in rooms for k in ("fit", "heldout")]
-        if not all(f.exists() for f in files):
+        files = [run_dir(out / r, variant) / f"predictions-{k}.npz" for r in rooms[variant] for k in ("fit", "heldout")]
+        if not files or not all(f.exists() for f in files):
             continue
         t, q = (np.concatenate([np.load(f)[k] for f in files]) for k in ("true_posture", "pred_posture"))
-        pv = parse_variant(variant)
         cells = [f"{100 * np.mean(q[t == c] == c):.1f}" if np.any(t == c) else "" for c in range(len(POSTURES))]
-        lines.append(f"| {METHOD_NAMES.get((pv.light, pv.arch), f'{pv.light} + {pv.arch}')} | " + " | ".join(cells)
+        lines.append(f"| {method_name(variant)} | {len(rooms[variant])} | " + " | ".join(cells)
                      + f" | {100 * np.mean(t == q):.1f} |")
-    return lines
-
-
-def method_goals(variants: dict, base: str, rooms: list[str], mean) -> list[str]:
-    """The issue's margins on fitted rooms: ours' error over AL + ResNet's (goal at most 0.57x) and
-    ours' six-way minus the fitted spot + CNN's (goal at least 5 points), test and simulated people."""
-    find = lambda light, arch: next((variants[v] for v in variants if (parse_variant(v).light, parse_variant(v).arch)
-                                     == (light, arch)), None)
-    ours, al, cnn = variants[base], find("adaptive", "resnet18"), find("fit", "chandran")
-    lines = []
-    for kind, who in (("fit", "test"), ("heldout", "simulated")):
-        parts = []
-        if al is not None:
-            parts.append(f"error {mean(ours, kind, 'error_cm') / mean(al, kind, 'error_cm'):.2f}x AL + ResNet's "
-                         "(goal at most 0.57x)")
-        if cnn is not None:
-            parts.append(f"six-way {mean(ours, kind, 'posture_accuracy') - mean(cnn, kind, 'posture_accuracy'):+.1f} "
-                         "points over the fitted spot + CNN (goal at least +5)")
-        if parts:
-            lines.append(f"Ours on the {who} people: " + "; ".join(parts) + ".")
     return lines
 
 
