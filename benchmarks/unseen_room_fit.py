@@ -377,9 +377,10 @@ def main() -> None:
     ap.add_argument("--summary-only", action="store_true", help="only the summary of the rooms fitted so far")
     ap.add_argument("--pair", nargs=2, action="append", default=[], metavar=("BASE", "OTHER"),
                     help="summary: OTHER - BASE paired by room on the rooms fitted with both variants (repeatable)")
-    ap.add_argument("--ensemble", nargs="+", default=[], metavar="VARIANT",
-                    help="summary: the networks of these variants (e.g. two training seeds) averaged, on the rooms "
-                         "where all were scored: posture probabilities and positions averaged")
+    ap.add_argument("--ensemble", nargs="+", action="append", default=[], metavar="VARIANT",
+                    help="summary: the networks of these variants (e.g. two training seeds, or a spot's and the "
+                         "projector-off photograph's) averaged, on the rooms where all were scored: posture "
+                         "probabilities and positions averaged (repeatable)")
     args = ap.parse_args()
     if args.summary_only:
         return summary(args)
@@ -469,7 +470,8 @@ def summary(args) -> None:
         lines.append(f"{people} people, variant {variant}: the spot chosen from the simulated people is the test "
                      f"people's oracle in {same} of {len(done)} rooms.")
     lines += people_curve(fits) + variant_pairs(fits, args.pair) + methods_table(fits, args.out)
-    lines += ensembles(args.out, rooms, args.ensemble)
+    for variants in args.ensemble:
+        lines += ensembles(args.out, rooms, variants)
     text = "\n".join(lines)
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)
@@ -561,14 +563,16 @@ def method_goals(variants: dict, base: str, rooms: dict, mean) -> list[str]:
 
 def ensembles(out: Path, rooms: list[str], variants: list[str]) -> list[str]:
     """``--ensemble``: per room and kind of people, each network alone and the networks' average
-    (posture probabilities and positions averaged), from the runs' predictions-*.npz."""
+    (posture probabilities and positions averaged), from the runs' predictions-*.npz; then the
+    ensemble minus each network, paired over the rooms."""
     if len(variants) < 2:
         return []
     runs = lambda r: [run_dir(out / r, v) for v in variants]
     done = [r for r in rooms if all((d / "predictions-heldout.npz").exists() for d in runs(r))]
-    lines = ["", f"Ensemble of {' and '.join(variants)} on {len(done)} rooms: six-way / error of each network alone "
-                 "(their mean) and of their average", "| room | people | alone | ensemble |", "|---|---|---|---|"]
-    gains = {"fit": [], "heldout": []}
+    lines = ["", f"Ensemble of {' and '.join(variants)} on {len(done)} rooms: six-way / error of each network and of "
+                 "their average", "| room | people | " + " | ".join(variants) + " | ensemble |",
+             "|---" * (len(variants) + 3) + "|"]
+    gains = {"fit": [], "heldout": []}  # per room: ensemble minus each network, six-way
     for r in done:
         for kind, who in (("fit", "test"), ("heldout", "simulated")):
             z = [np.load(d / f"predictions-{kind}.npz") for d in runs(r)]
@@ -578,16 +582,17 @@ def ensembles(out: Path, rooms: list[str], variants: list[str]) -> list[str]:
                                  "(rescore the runs)")
             acc = lambda pred: 100 * float(np.mean(pred == t))
             err = lambda pred: 100 * float(np.linalg.norm(pred - xy, axis=1).mean())
-            alone = (np.mean([acc(q["pred_posture"]) for q in z]), np.mean([err(q["pred_xy"]) for q in z]))
+            alone = [(acc(q["pred_posture"]), err(q["pred_xy"])) for q in z]
             both = (acc(np.mean([q["posture_prob"] for q in z], 0).argmax(1)), err(np.mean([q["pred_xy"] for q in z], 0)))
-            gains[kind].append(both[0] - alone[0])
-            lines.append(f"| {r} | {who} ({len(t)}) | {alone[0]:.1f}% / {alone[1]:.1f} cm | "
-                         f"{both[0]:.1f}% / {both[1]:.1f} cm |")
+            gains[kind].append([both[0] - a for a, _ in alone])
+            lines.append(f"| {r} | {who} ({len(t)}) | " + " | ".join(f"{a:.1f}% / {e:.1f} cm" for a, e in alone)
+                         + f" | {both[0]:.1f}% / {both[1]:.1f} cm |")
     for kind, who in (("fit", "test"), ("heldout", "simulated")):
         g = np.array(gains[kind])
         if len(g) > 1:
-            lines.append(f"Ensemble minus alone, six-way on the {who} people: {g.mean():+.1f} +- "
-                         f"{g.std(ddof=1) / np.sqrt(len(g)):.1f} points (mean +- standard error over {len(g)} rooms).")
+            lines.append(f"Ensemble minus each network, six-way on the {who} people (mean +- standard error over "
+                         f"{len(g)} rooms): " + ", ".join(f"{g[:, k].mean():+.1f} +- {g[:, k].std(ddof=1) / np.sqrt(len(g)):.1f}"
+                                                      f" ({v})" for k, v in enumerate(variants)) + ".")
     return lines
 
 
