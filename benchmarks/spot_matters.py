@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nlos_spotlight.data.store import read_manifest
+from nlos_spotlight.data.tensors import finished_scene_dirs
 from nlos_spotlight.errors import NlosError
 from nlos_spotlight.lighting.center import center_candidate
 from nlos_spotlight.lighting.snr import scene_snr
@@ -59,18 +59,6 @@ def scene_snrs(scene_dir: Path) -> dict:
             "ambient_light_ratio": ambient_light_ratio(scene_dir, int(mean_t.argmax()))}
 
 
-def split_scenes(root: Path, split: str, rooms: int = 0) -> list[Path]:
-    """The split's scenes (the first ``rooms``; 0: all): the manifest's, or for a dataset generated
-    in shards and not merged (``nlos generate --shard I/N``), every finished scene folder."""
-    if (root / "manifest.json").exists():
-        ids = [s["id"] for s in read_manifest(root)["splits"].get(split, [])]
-    else:
-        ids = sorted(d.name for d in (root / "scenes").glob(f"{split}-*") if (d / "done.json").exists())
-    if not ids:
-        raise SystemExit(f"{root}: no finished {split} scenes")
-    return [root / "scenes" / i for i in ids[:rooms or None]]
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", required=True)
@@ -78,8 +66,11 @@ def main() -> None:
     ap.add_argument("--rooms", type=int, default=0, help="only the split's first ROOMS scenes (0: all)")
     ap.add_argument("--json", help="also write the numbers here")
     args = ap.parse_args()
-    try:
-        rows = {d.name: scene_snrs(d) for d in split_scenes(Path(args.data), args.split, args.rooms)}
+    try:  # a dataset generated in shards and not merged: the scenes finished so far
+        scenes = finished_scene_dirs(args.data, args.split)[:args.rooms or None]
+        if not scenes:
+            raise SystemExit(f"{args.data}: no finished {args.split} scenes")
+        rows = {d.name: scene_snrs(d) for d in scenes}
     except NlosError as exc:
         raise SystemExit(str(exc)) from None
     print(f"{'scene':12s} {'family':18s} {'T':>4s} {'oracle':>9s} {'center':>9s} {'random':>9s} {'ambient':>9s} "

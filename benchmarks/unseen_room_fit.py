@@ -509,51 +509,59 @@ def methods_table(fits: dict, out: Path) -> list[str]:
                       "ours on those rooms, test / simulated people (mean +- standard error over the rooms):",
                   "| method | rooms | six-way (test) | six-way (simulated) | error (test) | error (simulated) | "
                   "paired six-way | paired error |", "|---|---|---|---|---|---|---|---|"]
-        mean = lambda rows, rs, kind, k: float(np.mean([float(rows[r, kind][k]) for r in rs]))
         for variant in sorted(variants, key=method_order):
             rows, rs = variants[variant], rooms[variant]
             if not rs:
                 continue
             pair = lambda k, unit="": "" if variant == base else " / ".join(
                 paired_change(ours, rows, rs, kind, k) + unit for kind in ("fit", "heldout"))
-            lines.append(f"| {method_name(variant)} | {len(rs)} | {mean(rows, rs, 'fit', 'posture_accuracy'):.1f}% | "
-                         f"{mean(rows, rs, 'heldout', 'posture_accuracy'):.1f}% | "
-                         f"{mean(rows, rs, 'fit', 'error_cm'):.1f} cm | {mean(rows, rs, 'heldout', 'error_cm'):.1f} cm | "
-                         f"{pair('posture_accuracy')} | {pair('error_cm', ' cm')} |")
-        lines += method_goals(variants, base, rooms, mean)
+            cells = [f"{room_mean(rows, rs, kind, k):.1f}{unit}" for k, unit in (("posture_accuracy", "%"),
+                     ("error_cm", " cm")) for kind in ("fit", "heldout")]  # six-way, then error; test, simulated
+            lines.append(f"| {method_name(variant)} | {len(rs)} | " + " | ".join(cells)
+                         + f" | {pair('posture_accuracy')} | {pair('error_cm', ' cm')} |")
+        lines += method_goals(variants, base, rooms)
         lines += posture_table(out, rooms, sorted(variants, key=method_order))
     return lines
 
 
+def method_key(variant: str) -> tuple[str, str]:
+    """A variant's (light, network): the key of :data:`METHOD_NAMES`."""
+    v = parse_variant(variant)
+    return v.light, v.arch
+
+
 def method_order(variant: str) -> tuple:
     """Sort key: the rows of :data:`METHOD_NAMES` in its order, then any other light and network."""
-    v = parse_variant(variant)
-    order = list(METHOD_NAMES)
-    return (order.index((v.light, v.arch)) if (v.light, v.arch) in order else len(order), v.light, v.arch)
+    key, order = method_key(variant), list(METHOD_NAMES)
+    return (order.index(key) if key in order else len(order), *key)
 
 
 def method_name(variant: str) -> str:
     """The paper's name for a variant's (light, network), else 'light + network'."""
-    v = parse_variant(variant)
-    return METHOD_NAMES.get((v.light, v.arch), f"{LIGHTS.get(v.light, 'fitted spot')} + {ARCHS.get(v.arch, 'ResNet')}")
+    light, arch = method_key(variant)
+    return METHOD_NAMES.get((light, arch), f"{LIGHTS.get(light, 'fitted spot')} + {ARCHS.get(arch, 'ResNet')}")
 
 
-def method_goals(variants: dict, base: str, rooms: dict, mean) -> list[str]:
+def room_mean(rows: dict, rooms: list[str], kind: str, key: str) -> float:
+    """Mean of ``key`` over ``rooms`` of one variant's rows {(room, kind): row}."""
+    return float(np.mean([float(rows[r, kind][key]) for r in rooms]))
+
+
+def method_goals(variants: dict, base: str, rooms: dict) -> list[str]:
     """The issue's margins on fitted rooms, each on the rooms fitted with both: ours' error over
     AL + ResNet's (goal at most 0.57x) and ours' six-way minus the fitted spot + CNN's (goal at
     least 5 points), on test and simulated people."""
-    find = lambda light, arch: next((v for v in variants if (parse_variant(v).light, parse_variant(v).arch)
-                                     == (light, arch)), None)
+    find = lambda *key: next((v for v in variants if method_key(v) == key), None)
     ours, al, cnn = variants[base], find("adaptive", "resnet18"), find("fit", "chandran")
     lines = []
     for kind, who in (("fit", "test"), ("heldout", "simulated")):
         parts = []
         if al is not None and rooms[al]:
-            ratio = mean(ours, rooms[al], kind, "error_cm") / mean(variants[al], rooms[al], kind, "error_cm")
+            ratio = room_mean(ours, rooms[al], kind, "error_cm") / room_mean(variants[al], rooms[al], kind, "error_cm")
             parts.append(f"error {ratio:.2f}x AL + ResNet's ({len(rooms[al])} rooms; goal at most 0.57x)")
         if cnn is not None and rooms[cnn]:
-            gain = (mean(ours, rooms[cnn], kind, "posture_accuracy")
-                    - mean(variants[cnn], rooms[cnn], kind, "posture_accuracy"))
+            gain = (room_mean(ours, rooms[cnn], kind, "posture_accuracy")
+                    - room_mean(variants[cnn], rooms[cnn], kind, "posture_accuracy"))
             parts.append(f"six-way {gain:+.1f} points over the fitted spot + CNN ({len(rooms[cnn])} rooms; goal at "
                          "least +5)")
         if parts:
@@ -583,16 +591,18 @@ def ensembles(out: Path, rooms: list[str], variants: list[str]) -> list[str]:
             acc = lambda pred: 100 * float(np.mean(pred == t))
             err = lambda pred: 100 * float(np.linalg.norm(pred - xy, axis=1).mean())
             alone = [(acc(q["pred_posture"]), err(q["pred_xy"])) for q in z]
-            both = (acc(np.mean([q["posture_prob"] for q in z], 0).argmax(1)), err(np.mean([q["pred_xy"] for q in z], 0)))
+            average = lambda k: np.mean([q[k] for q in z], 0)
+            both = (acc(average("posture_prob").argmax(1)), err(average("pred_xy")))
             gains[kind].append([both[0] - a for a, _ in alone])
             lines.append(f"| {r} | {who} ({len(t)}) | " + " | ".join(f"{a:.1f}% / {e:.1f} cm" for a, e in alone)
                          + f" | {both[0]:.1f}% / {both[1]:.1f} cm |")
     for kind, who in (("fit", "test"), ("heldout", "simulated")):
         g = np.array(gains[kind])
         if len(g) > 1:
+            se = g.std(0, ddof=1) / np.sqrt(len(g))
             lines.append(f"Ensemble minus each network, six-way on the {who} people (mean +- standard error over "
-                         f"{len(g)} rooms): " + ", ".join(f"{g[:, k].mean():+.1f} +- {g[:, k].std(ddof=1) / np.sqrt(len(g)):.1f}"
-                                                      f" ({v})" for k, v in enumerate(variants)) + ".")
+                         f"{len(g)} rooms): " + ", ".join(f"{g[:, k].mean():+.1f} +- {se[k]:.1f} ({v})"
+                                                      for k, v in enumerate(variants)) + ".")
     return lines
 
 
@@ -644,7 +654,7 @@ def people_curve(fits: dict) -> list[str]:
                       f"on the {len(common)} rooms fitted at every size ({', '.join(common)}):",
                   "| training people | six-way (test) | six-way (simulated) | error (simulated) |", "|---|---|---|---|"]
         for people, rows in sorted(sizes.items()):
-            mean = lambda kind, k: np.mean([float(rows[r, kind][k]) for r in common])
+            mean = lambda kind, k: room_mean(rows, common, kind, k)
             lines.append(f"| {people} | {mean('fit', 'posture_accuracy'):.1f}% | "
                          f"{mean('heldout', 'posture_accuracy'):.1f}% | {mean('heldout', 'error_cm'):.1f} cm |")
         lines += people_steps(b, sizes) + people_rooms(b, sizes)
