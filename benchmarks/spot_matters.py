@@ -12,7 +12,10 @@ Per scene SNR_t is averaged over the static samples; then
 * ambient only: no projector; the signal is ``nlos_ambient``, exposure on ``ambient``.
 
 Also, in radiance (before any exposure): the person's light with the projector off over the
-person's light under the oracle spot, sum |nlos_ambient| / sum |nlos_oracle| ("amb/or light").
+person's light under the oracle spot, sum |nlos_ambient| / sum |nlos_oracle| ("amb/or light"); and
+the SNR of that same hidden-region light (``nlos_ambient``) inside the oracle spot's photograph
+("amb in or"): exposed for the spot on the wall, the photograph keeps less of it than the
+projector-off one does.
 
 The SNR and the center choice are the package's (``nlos_spotlight.lighting.snr``, ``.center``).
 
@@ -26,25 +29,35 @@ import json
 from pathlib import Path
 
 import numpy as np
+import torch
 
 from nlos_spotlight.data.tensors import finished_scene_dirs
 from nlos_spotlight.errors import NlosError
 from nlos_spotlight.lighting.center import center_candidate
-from nlos_spotlight.lighting.snr import scene_snr
+from nlos_spotlight.lighting.snr import scene_snr, snr
+from nlos_spotlight.render.sensor import SensorConfig, auto_exposure
 from nlos_spotlight.scene import load_scene
 
 
-def ambient_light_ratio(scene_dir: Path, oracle: int) -> float:
-    """sum |nlos_ambient| / sum |nlos under the oracle spot| over a scene's static samples (radiance)."""
-    amb, spot_sum = 0.0, 0.0
+def ambient_light(scene_dir: Path, oracle: int) -> tuple[float, float]:
+    """Over a scene's static samples: sum |nlos_ambient| / sum |nlos under the oracle spot|
+    (radiance), and the mean SNR of ``nlos_ambient`` inside the oracle spot's photograph."""
+    st = np.load(scene_dir / "static.npz")
+    static = torch.as_tensor(st["direct"][oracle] + st["ambient"]).double()
+    cfg = SensorConfig.for_scene(load_scene(scene_dir))
+    exposure = auto_exposure(static, cfg)  # metered on the spot's person-free photograph
+    amb, spot_sum, amb_snr = 0.0, 0.0, []
     for path in sorted((scene_dir / "samples").glob("*.npz")):
         with np.load(path) as z:
             if int(z["trajectory"]) >= 0:
                 continue
             spot = np.einsum("r,rhwc->hwc", z["transport_u"][oracle], z["transport_v"])
-            amb += float(np.abs(z["nlos_ambient"]).sum())
+            na = z["nlos_ambient"]
+            amb += float(np.abs(na).sum())
             spot_sum += float(np.abs(spot).sum())
-    return amb / max(spot_sum, 1e-30)
+            na_t = torch.as_tensor(na).double()
+            amb_snr.append(snr(na_t, static + torch.as_tensor(spot).double() + na_t, exposure, cfg))
+    return amb / max(spot_sum, 1e-30), float(np.mean(amb_snr))
 
 
 def scene_snrs(scene_dir: Path) -> dict:
@@ -53,10 +66,11 @@ def scene_snrs(scene_dir: Path) -> dict:
     r = scene_snr(scene_dir)
     mean_t = r.candidates
     center = center_candidate(load_scene(scene_dir).camera, st["aim_points"], landed)
+    ratio, amb_in_oracle = ambient_light(scene_dir, int(mean_t.argmax()))
     return {"oracle": float(mean_t.max()), "center": float(mean_t[center]),
             "random": float(mean_t[landed].mean()), "ambient_only": r.ambient,
             "family": str(st["family"]), "candidates": int(landed.sum()),
-            "ambient_light_ratio": ambient_light_ratio(scene_dir, int(mean_t.argmax()))}
+            "ambient_light_ratio": ratio, "ambient_in_oracle": amb_in_oracle}
 
 
 def main() -> None:
@@ -74,12 +88,13 @@ def main() -> None:
     except NlosError as exc:
         raise SystemExit(str(exc)) from None
     print(f"{'scene':12s} {'family':18s} {'T':>4s} {'oracle':>9s} {'center':>9s} {'random':>9s} {'ambient':>9s} "
-          f"{'or/cen':>7s} {'or/rnd':>7s} {'amb/or light':>12s}")
+          f"{'or/cen':>7s} {'or/rnd':>7s} {'amb/or light':>12s} {'amb in or':>9s}")
     for sid, r in rows.items():
         print(f"{sid:12s} {r['family']:18s} {r['candidates']:4d} {r['oracle']:9.3g} {r['center']:9.3g} "
               f"{r['random']:9.3g} {r['ambient_only']:9.3g} {r['oracle'] / r['center']:7.2f} "
-              f"{r['oracle'] / r['random']:7.2f} {r['ambient_light_ratio']:12.3f}")
-    mean = {k: float(np.mean([r[k] for r in rows.values()])) for k in ("oracle", "center", "random", "ambient_only")}
+              f"{r['oracle'] / r['random']:7.2f} {r['ambient_light_ratio']:12.3f} {r['ambient_in_oracle']:9.3g}")
+    mean = {k: float(np.mean([r[k] for r in rows.values()]))
+            for k in ("oracle", "center", "random", "ambient_only", "ambient_in_oracle")}
     print(f"mean SNR: oracle {mean['oracle']:.3g}, center {mean['center']:.3g}, random {mean['random']:.3g}, "
           f"ambient only {mean['ambient_only']:.3g}")
     print(f"oracle / center = {mean['oracle'] / mean['center']:.2f}x, oracle / random = "
@@ -87,6 +102,10 @@ def main() -> None:
     ratios = [r["ambient_light_ratio"] for r in rows.values()]
     print(f"projector-off person light / oracle-spot person light (radiance): median {np.median(ratios):.3f}, "
           f"range {min(ratios):.3f}-{max(ratios):.3f}")
+    kept = [r["ambient_in_oracle"] / r["ambient_only"] for r in rows.values()]
+    print(f"the hidden region's light on the person: SNR {mean['ambient_in_oracle']:.3g} in the oracle spot's "
+          f"photograph against {mean['ambient_only']:.3g} with the projector off (median ratio {np.median(kept):.3f}, "
+          f"range {min(kept):.3f}-{max(kept):.3f})")
     if args.json:
         Path(args.json).write_text(json.dumps({"scenes": rows, "mean": mean}, indent=1))
 

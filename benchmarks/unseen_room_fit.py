@@ -110,6 +110,10 @@ class Variant:
     simulated people, ``nlos fit``'s), or a fixed policy of a baseline (:data:`LIGHTS`)."""
     arch: str = "resnet18"
     """The network: the seen-rooms recipe's light ResNet, or a baseline's (:data:`ARCHS`)."""
+    hidden_lux: float | None = None
+    """The hidden region's illuminance (lux) in training and test photographs instead of the room's
+    own (``world.calibration.HIDDEN_LUX``, 0.1-2 lux): 0 leaves the person only the projector's light
+    (``train.imaging.relit_hidden_region``: exact, nothing rendered again)."""
 
     def describe(self) -> str:
         what = f"{self.frames}-frame burst" if self.frames > 1 else "one frame"
@@ -119,7 +123,8 @@ class Variant:
                 + (f", weight decay {self.weight_decay:g}" if self.weight_decay is not None else "")
                 + (f", people of {self.renders} renders" if self.renders > 1 else "")
                 + (f", training seed +{self.train_seed}" if self.train_seed else "")
-                + (", started from a network of other rooms" if self.init else ""))
+                + (", started from a network of other rooms" if self.init else "")
+                + (f", hidden region at {self.hidden_lux:g} lux" if self.hidden_lux is not None else ""))
 
 
 LIGHTS = {"adaptive": "Adaptive Lighting spot", "center": "center spot", "flash": "flash", "ambient": "projector off"}
@@ -128,9 +133,9 @@ LIGHTS = {"adaptive": "Adaptive Lighting spot", "center": "center spot", "flash"
 ARCHS = {"chandran": "Chandran's CNN", "tancik": "Tancik's network", "dlnlos": "DL-NLOS's network"}
 """'+NAME': this baseline network (``models.baselines``) instead of the light ResNet."""
 
-VARIANT_HELP = ("FRAMES[+albedo][+eEPOCHS][+pPEOPLE][+wdDECAY][+xRENDERS][+sSEED][+init][+LIGHT][+ARCH] (e.g. "
-                "16+albedo, 16+e120, 16+e120+p1396, 16+wd1e-3, 16+e120+x2, 16+e120+x2+s1, 16+e120+init, "
-                f"16+e120+adaptive+chandran; LIGHT: {', '.join(LIGHTS)}; ARCH: {', '.join(ARCHS)})")
+VARIANT_HELP = ("FRAMES[+albedo][+eEPOCHS][+pPEOPLE][+wdDECAY][+xRENDERS][+sSEED][+init][+LIGHT][+ARCH][+luxLUX] "
+                "(e.g. 16+albedo, 16+e120, 16+e120+p1396, 16+wd1e-3, 16+e120+x2, 16+e120+x2+s1, 16+e120+init, "
+                f"16+e120+adaptive+chandran, 16+e120+lux0, 16+e120+ambient+lux0.01; LIGHT: {', '.join(LIGHTS)}; ARCH: {', '.join(ARCHS)})")
 
 
 def _number(text: str, kind: type) -> float | None:
@@ -148,7 +153,7 @@ def parse_variant(spec: str) -> Variant:
     frames, *extra = spec.split("+")
     v = Variant(int(frames) if frames.isdigit() else 0, False, None)
     kind = lambda e: (e if e in ("albedo", "init") else "light" if e in LIGHTS else "arch" if e in ARCHS
-                      else "wd" if e.startswith("wd") else e[:1])
+                      else "wd" if e.startswith("wd") else "lux" if e.startswith("lux") else e[:1])
     ok = v.frames >= 1 and len({kind(e) for e in extra}) == len(extra)  # each option at most once
     for e in extra:
         if e == "albedo":
@@ -162,6 +167,9 @@ def parse_variant(spec: str) -> Variant:
         elif e.startswith("wd"):
             v.weight_decay = _number(e[2:], float)
             ok &= v.weight_decay is not None
+        elif e.startswith("lux"):  # 0 allowed: no hidden light at all
+            v.hidden_lux = _number(e[3:], float)
+            ok &= v.hidden_lux is not None
         elif e[:1] in ("e", "p", "x", "s"):
             n = _number(e[1:], float if e[0] == "e" else int)
             ok &= bool(n)
@@ -173,6 +181,18 @@ def parse_variant(spec: str) -> Variant:
     if not ok:
         raise SystemExit(f"--variants: expected {VARIANT_HELP}, got {spec!r}")
     return v
+
+
+def room_hidden_lux(room: Path) -> float:
+    """The illuminance (lux) of a room's hidden region, from its scene file."""
+    from nlos_spotlight.scene.io import load_scene
+    from nlos_spotlight.world.calibration import illuminance_lux
+
+    amb = load_scene(room).ambient
+    lux = illuminance_lux(amb.hidden_radiance) if amb is not None else 0.0
+    if lux <= 0:
+        raise SystemExit(f"{room.name}: its hidden region has no light of its own to scale ('+lux')")
+    return lux
 
 
 def run_dir(room_out: Path, spec: str) -> Path:
@@ -283,6 +303,7 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: 
     from nlos_spotlight.data.store import atomic_npz
     from nlos_spotlight.evaluate.seen import score_rooms, seen_config, train_validated
     from nlos_spotlight.evaluate.unseen import room_lights
+    from nlos_spotlight.train.imaging import relit_hidden_region
     from nlos_spotlight.train.loop import Trainer
 
     v = parse_variant(spec)
@@ -302,6 +323,11 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: 
     for pool, secs in more[:v.renders - 1]:  # the further renders' training people ('+xN')
         split = dataclasses.replace(split, pool=split.pool.concat(pool))
         render_s += secs
+    if v.hidden_lux is not None:  # every photograph of the room, training and test, in that light
+        scale = v.hidden_lux / room_hidden_lux(Path(test.scene_dir))
+        split = dataclasses.replace(split, **{k: relit_hidden_region(getattr(split, k), scale)
+                                              for k in ("pool", "val", "test")})
+        test = relit_hidden_region(test, scale)
     run = run_dir(out, spec)
     per_epoch = max(1, split.pool.num_samples // cfg.batch_size)
     steps = max(args.min_steps, round((v.epochs or args.epochs) * per_epoch))
@@ -470,6 +496,7 @@ def summary(args) -> None:
         lines.append(f"{people} people, variant {variant}: the spot chosen from the simulated people is the test "
                      f"people's oracle in {same} of {len(done)} rooms.")
     lines += people_curve(fits) + variant_pairs(fits, args.pair) + methods_table(fits, args.out)
+    lines += hidden_light_table(fits, args.test)
     for variants in args.ensemble:
         lines += ensembles(args.out, rooms, variants)
     text = "\n".join(lines)
@@ -521,6 +548,39 @@ def methods_table(fits: dict, out: Path) -> list[str]:
                          + f" | {pair('posture_accuracy')} | {pair('error_cm', ' cm')} |")
         lines += method_goals(variants, base, rooms)
         lines += posture_table(out, rooms, sorted(variants, key=method_order))
+    return lines
+
+
+def hidden_light_table(fits: dict, test: Path) -> list[str]:
+    """Each method ('+lux' variants) with the hidden region's own light changed, beside the same
+    method and ours in the rooms' own light (0.1-2 lux), on the rooms fitted with both: is the
+    projector needed where the hidden room is dark?"""
+    unlit = lambda v: "+".join(e for e in v.split("+") if not e.startswith("lux"))
+    ours_of = lambda v: "+".join(e for e in unlit(v).split("+") if e not in LIGHTS and e not in ARCHS)
+    dark = [(p, v) for p, v in fits if parse_variant(v).hidden_lux is not None
+            and (p, unlit(v)) in fits and (p, ours_of(v)) in fits]
+    if not dark:
+        return []
+    lines = ["", "The hidden region's own light changed ('+lux', exact: the person's light under it scales with it, "
+                 "nothing else does), each method beside itself and ours in the rooms' own light on the same rooms; "
+                 "paired: mean +- standard error over the rooms, test / simulated people:",
+             "| method | hidden region | rooms | six-way (test) | six-way (simulated) | error (test) | error (simulated) "
+             "| six-way minus the same method in the rooms' light | six-way minus ours in the rooms' light |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for people, variant in sorted(dark, key=lambda pv: (method_order(pv[1]), -parse_variant(pv[1]).hidden_lux)):
+        same, ours = fits[people, unlit(variant)], fits[people, ours_of(variant)]
+        rows = fits[people, variant]
+        rooms = sorted(scored_rooms(rows) & scored_rooms(same) & scored_rooms(ours))
+        if not rooms:
+            continue
+        own = np.mean([room_hidden_lux(test / "scenes" / r) for r in rooms])
+        pair = lambda a, b: " / ".join(paired_change(a, b, rooms, kind, "posture_accuracy") for kind in ("fit", "heldout"))
+        cells = lambda rs: " | ".join(f"{room_mean(rs, rooms, kind, k):.1f}{unit}" for k, unit in
+                                      (("posture_accuracy", "%"), ("error_cm", " cm")) for kind in ("fit", "heldout"))
+        lines += [f"| {method_name(unlit(variant))} | rooms' own ({own:.2f} lux on average) | {len(rooms)} | "
+                  f"{cells(same)} | | {pair(ours, same) if same is not ours else ''} |",
+                  f"| {method_name(unlit(variant))} | {parse_variant(variant).hidden_lux:g} lux | {len(rooms)} | "
+                  f"{cells(rows)} | {pair(same, rows)} | {pair(ours, rows)} |"]
     return lines
 
 

@@ -60,6 +60,12 @@ def ambient_radiance_per_channel(lux: float) -> float:
     return lux / math.pi / LM_PER_W / 3
 
 
+def illuminance_lux(radiance_per_channel) -> float:
+    """Illuminance (lux) a uniform light field of this radiance per channel gives a surface (the
+    inverse of :func:`ambient_radiance_per_channel`; a tinted field counts its channels' mean)."""
+    return float(sum(radiance_per_channel) / len(radiance_per_channel)) * math.pi * LM_PER_W * 3
+
+
 PROJECTOR_INTENSITY = projector_intensity_per_channel()
 """~19 W/sr per channel."""
 AMBIENT_LUX = (2.0, 40.0)
