@@ -401,6 +401,9 @@ def main() -> None:
     ap.add_argument("--ceiling", type=Path, default=Path("docs/results/posture-ceiling-unseen.txt"),
                     help="posture_separability.py --split test's output: the ideal observer per person")
     ap.add_argument("--summary-only", action="store_true", help="only the summary of the rooms fitted so far")
+    ap.add_argument("--hidden-light", action="store_true",
+                    help="summary: only the '+lux' variants (every method in that light, and each beside itself and "
+                         "ours in the rooms' own light), to summary-hidden-light.md")
     ap.add_argument("--pair", nargs=2, action="append", default=[], metavar=("BASE", "OTHER"),
                     help="summary: OTHER - BASE paired by room on the rooms fitted with both variants (repeatable)")
     ap.add_argument("--ensemble", nargs="+", action="append", default=[], metavar="VARIANT",
@@ -452,6 +455,8 @@ def summary(args) -> None:
             elif own and r["room"] not in own:
                 continue  # --also: only the rooms fitted here, so that every line has the same rooms
             fits.setdefault((int(r["people"]), r["variant"]), {})[r["room"], r["spot"].split(":")[0]] = r
+    if args.hidden_light:
+        return hidden_light_summary(args, fits)
     rooms = sorted({room for rows in fits.values() for room, _ in rows})
     index = [int(r.split("-")[-1]) for r in rooms]
     lines = [f"{len(rooms)} test rooms ({', '.join(rooms)}), static people; one frame unless stated; last column: "
@@ -503,6 +508,18 @@ def summary(args) -> None:
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "summary.md").write_text(text + "\n")
+
+
+def hidden_light_summary(args, fits: dict) -> None:
+    """``--hidden-light``: the methods table of each '+lux' light (the variants that share it) and
+    :func:`hidden_light_table`, written to summary-hidden-light.md."""
+    dark = {k: rows for k, rows in fits.items() if parse_variant(k[1]).hidden_lux is not None}
+    lines = methods_table(dark, args.out) + hidden_light_table(fits, args.test)
+    if not lines:
+        raise SystemExit(f"--hidden-light: no '+lux' variant fitted under {args.out}")
+    text = "\n".join(lines).lstrip("\n")
+    print(text)
+    (args.out / "summary-hidden-light.md").write_text(text + "\n")
 
 
 METHOD_NAMES = {("fit", "resnet18"): "Ours (fitted spot + ResNet)", ("adaptive", "resnet18"): "AL + ResNet",
@@ -567,6 +584,7 @@ def hidden_light_table(fits: dict, test: Path) -> list[str]:
              "| method | hidden region | rooms | six-way (test) | six-way (simulated) | error (test) | error (simulated) "
              "| six-way minus the same method in the rooms' light | six-way minus ours in the rooms' light |",
              "|---|---|---|---|---|---|---|---|---|"]
+    shown = set()  # a method's row in the rooms' light once, above all its '+lux' rows on the same rooms
     for people, variant in sorted(dark, key=lambda pv: (method_order(pv[1]), -parse_variant(pv[1]).hidden_lux)):
         same, ours = fits[people, unlit(variant)], fits[people, ours_of(variant)]
         rows = fits[people, variant]
@@ -577,9 +595,11 @@ def hidden_light_table(fits: dict, test: Path) -> list[str]:
         pair = lambda a, b: " / ".join(paired_change(a, b, rooms, kind, "posture_accuracy") for kind in ("fit", "heldout"))
         cells = lambda rs: " | ".join(f"{room_mean(rs, rooms, kind, k):.1f}{unit}" for k, unit in
                                       (("posture_accuracy", "%"), ("error_cm", " cm")) for kind in ("fit", "heldout"))
-        lines += [f"| {method_name(unlit(variant))} | rooms' own ({own:.2f} lux on average) | {len(rooms)} | "
-                  f"{cells(same)} | | {pair(ours, same) if same is not ours else ''} |",
-                  f"| {method_name(unlit(variant))} | {parse_variant(variant).hidden_lux:g} lux | {len(rooms)} | "
+        if (people, unlit(variant), tuple(rooms)) not in shown:
+            shown.add((people, unlit(variant), tuple(rooms)))
+            lines.append(f"| {method_name(unlit(variant))} | rooms' own ({own:.2f} lux on average) | {len(rooms)} | "
+                         f"{cells(same)} | | {pair(ours, same) if same is not ours else ''} |")
+        lines += [f"| {method_name(unlit(variant))} | {parse_variant(variant).hidden_lux:g} lux | {len(rooms)} | "
                   f"{cells(rows)} | {pair(same, rows)} | {pair(ours, rows)} |"]
     return lines
 
