@@ -34,6 +34,12 @@ spot, and ``+chandran``, ``+tancik``, ``+dlnlos`` train that network instead of 
 Chandran & Jayasuriya, ``16+e120+flash+tancik``, ``16+e120+ambient+dlnlos``). The summary then
 tables every method on the rooms fitted with all of them, with the issue's margins.
 
+A dark or brighter hidden room: ``+luxX`` trains and tests every photograph with the hidden region
+at X lux instead of the room's own 0.1-2 (0: the projector's light only; exact, nothing rendered
+again: ``train.imaging.relit_hidden_region``), e.g. ``16+e120+lux0``, ``16+e120+adaptive+lux0``,
+``16+e120+ambient+lux0.01``; ``--summary-only --hidden-light`` tables them alone
+(summary-hidden-light.md).
+
 Writes ``--out``/room-fit-FIRST-LAST.csv (room, variant, spot, people, posture_accuracy, posture3_accuracy, error_cm,
 mean_answer_cm, test_people, render_s, train_s) and per room its data, run and predictions.
 Resumable: a room's dataset resumes, a trained room keeps ``best.pt``.
