@@ -39,12 +39,12 @@ from nlos_spotlight.render.sensor import SensorConfig, auto_exposure
 from nlos_spotlight.scene import load_scene
 
 
-def ambient_light(scene_dir: Path, oracle: int) -> tuple[float, float]:
+def ambient_light(scene_dir: Path, st, scene, oracle: int) -> tuple[float, float]:
     """Over a scene's static samples: sum |nlos_ambient| / sum |nlos under the oracle spot|
-    (radiance), and the mean SNR of ``nlos_ambient`` inside the oracle spot's photograph."""
-    st = np.load(scene_dir / "static.npz")
+    (radiance), and the mean SNR of ``nlos_ambient`` inside the oracle spot's photograph (``st``:
+    its static.npz, ``scene``: its loaded scene)."""
     static = torch.as_tensor(st["direct"][oracle] + st["ambient"]).double()
-    cfg = SensorConfig.for_scene(load_scene(scene_dir))
+    cfg = SensorConfig.for_scene(scene)
     exposure = auto_exposure(static, cfg)  # metered on the spot's person-free photograph
     amb, spot_sum, amb_snr = 0.0, 0.0, []
     for path in sorted((scene_dir / "samples").glob("*.npz")):
@@ -65,8 +65,9 @@ def scene_snrs(scene_dir: Path) -> dict:
     landed = st["spot_landed"]
     r = scene_snr(scene_dir)
     mean_t = r.candidates
-    center = center_candidate(load_scene(scene_dir).camera, st["aim_points"], landed)
-    ratio, amb_in_oracle = ambient_light(scene_dir, int(mean_t.argmax()))
+    scene = load_scene(scene_dir)
+    center = center_candidate(scene.camera, st["aim_points"], landed)
+    ratio, amb_in_oracle = ambient_light(scene_dir, st, scene, int(mean_t.argmax()))
     return {"oracle": float(mean_t.max()), "center": float(mean_t[center]),
             "random": float(mean_t[landed].mean()), "ambient_only": r.ambient,
             "family": str(st["family"]), "candidates": int(landed.sum()),

@@ -540,10 +540,9 @@ def methods_table(fits: dict, out: Path) -> list[str]:
     differ only in '+LIGHT' / '+ARCH'): the paper's Tables 1-2 with every method given the room's
     simulation, each method on the rooms it was fitted in beside ours on the same rooms (paired),
     the issue's margins, and six-way per posture from the runs' predictions under ``out``."""
-    strip = lambda v: "+".join(e for e in v.split("+") if e not in LIGHTS and e not in ARCHS)
     groups = {}
     for (people, variant), rows in fits.items():
-        groups.setdefault((people, strip(variant)), {})[variant] = rows
+        groups.setdefault((people, method_base(variant)), {})[variant] = rows
     lines = []
     for (people, base), variants in sorted(groups.items()):
         if len(variants) < 2 or base not in variants:
@@ -579,11 +578,12 @@ def hidden_light_table(fits: dict, test: Path) -> list[str]:
     method and ours in the rooms' own light (0.1-2 lux), on the rooms fitted with both: is the
     projector needed where the hidden room is dark?"""
     unlit = lambda v: "+".join(e for e in v.split("+") if not e.startswith("lux"))
-    ours_of = lambda v: "+".join(e for e in unlit(v).split("+") if e not in LIGHTS and e not in ARCHS)
+    ours_of = lambda v: method_base(unlit(v))
     dark = [(p, v) for p, v in fits if parse_variant(v).hidden_lux is not None
             and (p, unlit(v)) in fits and (p, ours_of(v)) in fits]
     if not dark:
         return []
+    own_lux = {r: room_hidden_lux(test / "scenes" / r) for r in set().union(*(scored_rooms(fits[k]) for k in dark))}
     lines = ["", "The hidden region's own light changed ('+lux', exact: the person's light under it scales with it, "
                  "nothing else does), each method beside itself and ours in the rooms' own light on the same rooms; "
                  "paired: mean +- standard error over the rooms, test / simulated people:",
@@ -597,7 +597,7 @@ def hidden_light_table(fits: dict, test: Path) -> list[str]:
         rooms = sorted(scored_rooms(rows) & scored_rooms(same) & scored_rooms(ours))
         if not rooms:
             continue
-        own = np.mean([room_hidden_lux(test / "scenes" / r) for r in rooms])
+        own = np.mean([own_lux[r] for r in rooms])
         pair = lambda a, b: " / ".join(paired_change(a, b, rooms, kind, "posture_accuracy") for kind in ("fit", "heldout"))
         cells = lambda rs: " | ".join(f"{room_mean(rs, rooms, kind, k):.1f}{unit}" for k, unit in
                                       (("posture_accuracy", "%"), ("error_cm", " cm")) for kind in ("fit", "heldout"))
@@ -608,6 +608,11 @@ def hidden_light_table(fits: dict, test: Path) -> list[str]:
         lines += [f"| {method_name(unlit(variant))} | {parse_variant(variant).hidden_lux:g} lux | {len(rooms)} | "
                   f"{cells(rows)} | {pair(same, rows)} | {pair(ours, rows)} |"]
     return lines
+
+
+def method_base(variant: str) -> str:
+    """A variant without its '+LIGHT' and '+ARCH': ours with the same capture, people and training."""
+    return "+".join(e for e in variant.split("+") if e not in LIGHTS and e not in ARCHS)
 
 
 def method_key(variant: str) -> tuple[str, str]:
