@@ -40,6 +40,12 @@ again: ``train.imaging.relit_hidden_region``), e.g. ``16+e120+lux0``, ``16+e120+
 ``16+e120+ambient+lux0.01``; ``--summary-only --hidden-light`` tables them alone
 (summary-hidden-light.md).
 
+The spot chosen by the task: ``+rankK`` trains and tests under the fitted room's K-th best spot by
+SNR (K = 2..6; the fit's own spot is rank 1), and ``--task-spot V1 V2 ...`` (summary) picks per
+room the candidate spot whose network reads posture best on its validation people, e.g.
+``--task-spot 16+e120+lux0 16+e120+rank2+lux0 16+e120+rank3+lux0 16+e120+adaptive+lux0``. Every
+variant is also scored on its validation people (rows 'val:') for that choice.
+
 Writes ``--out``/room-fit-FIRST-LAST.csv (room, variant, spot, people, posture_accuracy, posture3_accuracy, error_cm,
 mean_answer_cm, test_people, render_s, train_s) and per room its data, run and predictions.
 Resumable: a room's dataset resumes, a trained room keeps ``best.pt``.
@@ -133,8 +139,22 @@ class Variant:
                 + (f", hidden region at {self.hidden_lux:g} lux" if self.hidden_lux is not None else ""))
 
 
-LIGHTS = {"adaptive": "Adaptive Lighting spot", "center": "center spot", "flash": "flash", "ambient": "projector off"}
-"""'+NAME': train and test under this fixed policy (``lighting.POLICIES``) instead of the fitted spot."""
+LIGHTS = {"adaptive": "Adaptive Lighting spot", "center": "center spot", "flash": "flash", "ambient": "projector off",
+          **{f"rank{k}": f"spot of SNR rank {k}" for k in range(2, 7)}}
+"""'+NAME': train and test under this fixed policy (``lighting.POLICIES``) instead of the fitted spot;
+'+rankK': the fitted room's K-th best spot by its simulated people's SNR (the fit's spot is rank 1)."""
+
+
+def light_policy(light: str) -> str:
+    """The ``lighting.POLICIES`` name of a variant's light ('fit' is the oracle on the fitted room's
+    simulated people, 'rankK' its K-th best spot by SNR)."""
+    return "oracle" if light == "fit" else f"oracle-{light[4:]}" if light.startswith("rank") else light
+
+
+def fitted_spot(light: str) -> bool:
+    """Whether the light is chosen from the fitted room's simulated people (so the test room, whose
+    own SNR comes from its test people, must not choose again: its face is the fit's)."""
+    return light == "fit" or light.startswith("rank")
 
 ARCHS = {"chandran": "Chandran's CNN", "tancik": "Tancik's network", "dlnlos": "DL-NLOS's network"}
 """'+NAME': this baseline network (``models.baselines``) instead of the light ResNet."""
@@ -314,8 +334,7 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: 
 
     v = parse_variant(spec)
     # 'fit': the oracle over the fitted room's full-transport simulated people (none of the test people)
-    cfg = seen_config(1, args.seed + v.train_seed, noise=True, policy="oracle" if v.light == "fit" else v.light,
-                      arch=v.arch)
+    cfg = seen_config(1, args.seed + v.train_seed, noise=True, policy=light_policy(v.light), arch=v.arch)
     cfg = dataclasses.replace(cfg, sensor={"burst_frames": v.frames} if v.frames > 1 else {}, albedo_augment=v.albedo)
     if v.weight_decay is not None:
         cfg = dataclasses.replace(cfg, weight_decay=v.weight_decay)
@@ -354,11 +373,12 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: 
     (y, mode, _), = tr.illuminations([tr.scenes[0]], train=False)
     # the room's test people under the network's illumination and, for the fitted spot, under the
     # test people's oracle spot; "heldout": 100 more simulated people of the fit (a tighter estimate
-    # of the same network in the same room than 30 test people give)
-    lights = {"fit": (test, (y, mode)), "heldout": (split.test, (y, mode))}
+    # of the same network in the same room than 30 test people give); "val": the simulated people
+    # that chose its weights (what a task-chosen spot may be chosen by: ``--task-spot``)
+    lights = {"fit": (test, (y, mode)), "heldout": (split.test, (y, mode)), "val": (split.val, (y, mode))}
     if v.light == "fit":
         lights["oracle"] = (test, (room_lights([test], "oracle", 0)[0].spot_vector(len(test.faces)), "spot"))
-    else:  # a fixed policy reads the scan only: the test room's choice must be the training room's
+    elif not fitted_spot(v.light):  # a fixed policy reads the scan only: the test room's choice must be the training room's
         ill = room_lights([test], v.light, args.seed)[0]
         if ill.mode != mode or (y is not None and ill.face != int(y.argmax())):
             raise SystemExit(f"{Path(test.scene_dir).name}: {v.light} chose differently in the fitted room")
@@ -416,6 +436,10 @@ def main() -> None:
                     help="summary: the networks of these variants (e.g. two training seeds, or a spot's and the "
                          "projector-off photograph's) averaged, on the rooms where all were scored: posture "
                          "probabilities and positions averaged (repeatable)")
+    ap.add_argument("--task-spot", nargs="+", action="append", default=[], metavar="VARIANT",
+                    help="summary: the spot chosen by the task among these variants' spots (ours first, e.g. "
+                         "16+e120+lux0 16+e120+rank2+lux0 16+e120+adaptive+lux0): per room the one whose network "
+                         "reads posture best on its validation people (repeatable)")
     args = ap.parse_args()
     if args.summary_only:
         return summary(args)
@@ -507,7 +531,7 @@ def summary(args) -> None:
         lines.append(f"{people} people, variant {variant}: the spot chosen from the simulated people is the test "
                      f"people's oracle in {same} of {len(done)} rooms.")
     lines += people_curve(fits) + variant_pairs(fits, args.pair) + methods_table(fits, args.out)
-    lines += hidden_light_table(fits, args.test)
+    lines += hidden_light_table(fits, args.test) + task_spot_tables(fits, args.task_spot)
     for variants in args.ensemble:
         lines += ensembles(args.out, rooms, variants)
     text = "\n".join(lines)
@@ -520,7 +544,7 @@ def hidden_light_summary(args, fits: dict) -> None:
     """``--hidden-light``: the methods table of each '+lux' light (the variants that share it) and
     :func:`hidden_light_table`, written to summary-hidden-light.md."""
     dark = {k: rows for k, rows in fits.items() if parse_variant(k[1]).hidden_lux is not None}
-    lines = methods_table(dark, args.out) + hidden_light_table(fits, args.test)
+    lines = methods_table(dark, args.out) + hidden_light_table(fits, args.test) + task_spot_tables(fits, args.task_spot)
     if not lines:
         raise SystemExit(f"--hidden-light: no '+lux' variant fitted under {args.out}")
     text = "\n".join(lines).lstrip("\n")
@@ -797,6 +821,57 @@ def variant_pairs(fits: dict, pairs: list) -> list[str]:
                   "| six-way (test) | six-way (simulated) | error (test) | error (simulated) |", "|---|---|---|---|",
                   f"| {delta('fit', 'posture_accuracy')} | {delta('heldout', 'posture_accuracy')} | "
                   f"{delta('fit', 'error_cm', ' cm')} | {delta('heldout', 'error_cm', ' cm')} |"]
+    return lines
+
+
+def task_spot_tables(fits: dict, groups: list) -> list[str]:
+    """``--task-spot V1 V2 ...``: the spot chosen by the task. In each room, of the candidates'
+    networks (the same people and training under different spots, V1 ours), the one whose six-way on
+    its 100 validation people is highest (ties: lower validation error); scored on the test and the
+    held-out simulated people, which took no part in the choice. Beside it each candidate, and the
+    candidate a choice by the held-out people would make (hindsight: what a perfect choice reaches)."""
+    lines = []
+    for candidates in groups:
+        people = [p for p in {p for p, _ in fits} if all((p, v) in fits for v in candidates)]
+        if not people:
+            raise SystemExit(f"--task-spot: no fit holds every one of {' '.join(candidates)}")
+        runs = {v: fits[max(people), v] for v in candidates}
+        rooms = sorted(set.intersection(*({r for r, k in rows if k == "val"} & scored_rooms(rows)
+                                          for rows in runs.values())))
+        if not rooms:
+            raise SystemExit(f"--task-spot: no room has validation rows for all of {' '.join(candidates)} "
+                             "(fitted before validation was scored: fit them again)")
+        acc = lambda v, r, kind: float(runs[v][r, kind]["posture_accuracy"])
+        pick = lambda r, kind: max(candidates, key=lambda v: (acc(v, r, kind), -float(runs[v][r, kind]["error_cm"])))
+        chosen = {r: pick(r, "val") for r in rooms}
+        hindsight = {r: pick(r, "heldout") for r in rooms}
+        as_rows = lambda choice: {(r, k): runs[choice[r]][r, k] for r in rooms for k in ("fit", "heldout")}
+        ours = runs[candidates[0]]
+        lines += ["", f"The spot chosen by the task ({max(people)} simulated people a room, "
+                      f"{parse_variant(candidates[0]).describe()}): in each room the candidate whose network reads "
+                      "posture best on its 100 validation people; six-way validation / held-out simulated / test "
+                      "per room and candidate (spot = candidate face):",
+                  "| room | " + " | ".join(method_name(v) for v in candidates) + " | chosen | hindsight |",
+                  "|---|" + "---|" * (len(candidates) + 2)]
+        for r in rooms:
+            cells = [f"{acc(v, r, 'val'):.0f} / {acc(v, r, 'heldout'):.0f} / {acc(v, r, 'fit'):.0f} "
+                     f"({runs[v][r, 'fit']['spot'].split(':')[1]})" for v in candidates]
+            lines.append(f"| {r} | " + " | ".join(cells) + f" | {method_name(chosen[r])} | {method_name(hindsight[r])} |")
+        lines += [f"Mean over the {len(rooms)} rooms; paired: minus ours (mean +- standard error over the rooms), "
+                  "test / simulated people:",
+                  "| method | six-way (test) | six-way (simulated) | error (test) | error (simulated) | paired six-way |"
+                  " paired error |", "|---|---|---|---|---|---|---|"]
+        for name, rows in [(method_name(v), runs[v]) for v in candidates] + [
+                ("task-chosen spot (by validation)", as_rows(chosen)),
+                ("hindsight (by the held-out simulated people)", as_rows(hindsight))]:
+            cells = [f"{room_mean(rows, rooms, kind, k):.1f}{unit}" for k, unit in (("posture_accuracy", "%"),
+                     ("error_cm", " cm")) for kind in ("fit", "heldout")]
+            pair = lambda k, unit="": "" if rows is ours else " / ".join(
+                paired_change(ours, rows, rooms, kind, k) + unit for kind in ("fit", "heldout"))
+            lines.append(f"| {name} | " + " | ".join(cells) + f" | {pair('posture_accuracy')} | "
+                         f"{pair('error_cm', ' cm')} |")
+        same = sum(chosen[r] == hindsight[r] for r in rooms)
+        lines.append(f"The validation people chose the hindsight candidate in {same} of {len(rooms)} rooms.")
     return lines
 
 

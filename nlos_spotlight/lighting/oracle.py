@@ -19,8 +19,28 @@ from .snr import candidate_snr
 
 def oracle_spot(scene, scene_dir: Path, rng: np.random.Generator) -> Illumination:
     """argmax_t SNR_t over the landed candidates (``rng`` unused; ties go to the lowest index)."""
+    return Illumination("spot", snr_order(scene, scene_dir)[0])
+
+
+def snr_order(scene, scene_dir: Path) -> list[int]:
+    """The landed candidates, highest mean NLOS SNR first (ties: lowest index first)."""
     values = candidate_snr(scene_dir)
     landed = scene.landed.cpu().numpy().astype(bool)
     if len(values) != len(landed):
         raise NlosError(f"{scene_dir}: {len(values)} stored candidates, the scene tensors have {len(landed)}")
-    return Illumination("spot", int(np.argmax(np.where(landed, values, -np.inf))))
+    return [int(t) for t in np.argsort(-values, kind="stable") if landed[t]]
+
+
+def ranked_oracle(rank: int):
+    """The policy 'oracle-RANK': the landed candidate of the RANK-th highest SNR (rank 1 is
+    :func:`oracle_spot`). SNR is a proxy for the task; a runner-up spot may read posture better,
+    which only training on it can tell (``benchmarks/unseen_room_fit.py``'s task-chosen spot)."""
+
+    def ranked(scene, scene_dir: Path, rng: np.random.Generator) -> Illumination:
+        order = snr_order(scene, scene_dir)
+        if len(order) < rank:
+            raise NlosError(f"{scene_dir}: only {len(order)} candidates land, no spot of SNR rank {rank}")
+        return Illumination("spot", order[rank - 1])
+
+    ranked.__name__ = f"oracle_rank{rank}"
+    return ranked

@@ -13,6 +13,7 @@ from nlos_spotlight.errors import NlosError
 from nlos_spotlight.lighting import POLICIES, Illumination
 from nlos_spotlight.lighting.adaptive import AdaptiveConfig, adaptive_scores
 from nlos_spotlight.lighting.center import center_candidate
+from nlos_spotlight.lighting.oracle import ranked_oracle
 from nlos_spotlight.lighting.snr import candidate_snr, scene_snr, snr
 from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.render.camera import pixel_rays
@@ -99,6 +100,21 @@ def test_oracle_has_the_highest_snr_and_matches_the_training_images(micro_scene)
         e = auto_exposure(free.double(), cfg)
         mine = np.mean([snr(signal[i].double(), images[i].double(), e, cfg) for i in range(len(static_idx))])
         assert mine == pytest.approx(values[t], rel=1e-4)
+
+
+def test_ranked_oracles_are_the_runners_up_by_snr(micro_scene):
+    scene_dir, s = micro_scene
+    values, landed = candidate_snr(scene_dir), s.landed.numpy()
+    faces = [POLICIES["oracle"](s, scene_dir, None).face] + [
+        POLICIES[f"oracle-{k}"](s, scene_dir, None).face for k in range(2, min(7, int(landed.sum()) + 1))]
+    assert len(faces) >= 3 and len(set(faces)) == len(faces) and all(landed[faces])
+    snr = values[faces]
+    assert np.all(np.diff(snr) <= 0)  # each rank no brighter than the one above it
+    # and no landed spot outside the first k is brighter than rank k
+    rest = np.delete(values, faces)[np.delete(landed, faces)]
+    assert rest.size == 0 or rest.max() <= snr[-1]
+    with pytest.raises(NlosError, match="rank"):
+        ranked_oracle(int(landed.sum()) + 1)(s, scene_dir, None)
 
 
 # --------------------------------------------------------------------------------------- flash
