@@ -832,22 +832,12 @@ def task_spot_tables(fits: dict, groups: list) -> list[str]:
     candidate a choice by the held-out people would make (hindsight: what a perfect choice reaches)."""
     lines = []
     for candidates in groups:
-        people = [p for p in {p for p, _ in fits} if all((p, v) in fits for v in candidates)]
-        if not people:
-            raise SystemExit(f"--task-spot: no fit holds every one of {' '.join(candidates)}")
-        runs = {v: fits[max(people), v] for v in candidates}
-        rooms = sorted(set.intersection(*({r for r, k in rows if k == "val"} & scored_rooms(rows)
-                                          for rows in runs.values())))
-        if not rooms:
-            raise SystemExit(f"--task-spot: no room has validation rows for all of {' '.join(candidates)} "
-                             "(fitted before validation was scored: fit them again)")
+        people, runs, rooms = task_spot_runs(fits, candidates)
         acc = lambda v, r, kind: float(runs[v][r, kind]["posture_accuracy"])
         pick = lambda r, kind: max(candidates, key=lambda v: (acc(v, r, kind), -float(runs[v][r, kind]["error_cm"])))
         chosen = {r: pick(r, "val") for r in rooms}
         hindsight = {r: pick(r, "heldout") for r in rooms}
-        as_rows = lambda choice: {(r, k): runs[choice[r]][r, k] for r in rooms for k in ("fit", "heldout")}
-        ours = runs[candidates[0]]
-        lines += ["", f"The spot chosen by the task ({max(people)} simulated people a room, "
+        lines += ["", f"The spot chosen by the task ({people} simulated people a room, "
                       f"{parse_variant(candidates[0]).describe()}): in each room the candidate whose network reads "
                       "posture best on its 100 validation people; six-way validation / held-out simulated / test "
                       "per room and candidate (spot = candidate face):",
@@ -857,21 +847,47 @@ def task_spot_tables(fits: dict, groups: list) -> list[str]:
             cells = [f"{acc(v, r, 'val'):.0f} / {acc(v, r, 'heldout'):.0f} / {acc(v, r, 'fit'):.0f} "
                      f"({runs[v][r, 'fit']['spot'].split(':')[1]})" for v in candidates]
             lines.append(f"| {r} | " + " | ".join(cells) + f" | {method_name(chosen[r])} | {method_name(hindsight[r])} |")
-        lines += [f"Mean over the {len(rooms)} rooms; paired: minus ours (mean +- standard error over the rooms), "
-                  "test / simulated people:",
-                  "| method | six-way (test) | six-way (simulated) | error (test) | error (simulated) | paired six-way |"
-                  " paired error |", "|---|---|---|---|---|---|---|"]
-        for name, rows in [(method_name(v), runs[v]) for v in candidates] + [
-                ("task-chosen spot (by validation)", as_rows(chosen)),
-                ("hindsight (by the held-out simulated people)", as_rows(hindsight))]:
-            cells = [f"{room_mean(rows, rooms, kind, k):.1f}{unit}" for k, unit in (("posture_accuracy", "%"),
-                     ("error_cm", " cm")) for kind in ("fit", "heldout")]
-            pair = lambda k, unit="": "" if rows is ours else " / ".join(
-                paired_change(ours, rows, rooms, kind, k) + unit for kind in ("fit", "heldout"))
-            lines.append(f"| {name} | " + " | ".join(cells) + f" | {pair('posture_accuracy')} | "
-                         f"{pair('error_cm', ' cm')} |")
+        as_rows = lambda choice: {(r, k): runs[choice[r]][r, k] for r in rooms for k in ("fit", "heldout")}
+        named = [(method_name(v), runs[v]) for v in candidates] + [
+            ("task-chosen spot (by validation)", as_rows(chosen)),
+            ("hindsight (by the held-out simulated people)", as_rows(hindsight))]
+        lines += task_spot_means(named, rooms)
         same = sum(chosen[r] == hindsight[r] for r in rooms)
-        lines.append(f"The validation people chose the hindsight candidate in {same} of {len(rooms)} rooms.")
+        lines.append(f"The validation people chose the hindsight candidate in {same} of {len(rooms)} rooms; the "
+                     "task-chosen spot minus each candidate, six-way test / simulated: " + "; ".join(
+                         f"{name} " + " / ".join(paired_change(rows, named[-2][1], rooms, kind, "posture_accuracy")
+                                                 for kind in ("fit", "heldout")) for name, rows in named[1:-2]) + ".")
+    return lines
+
+
+def task_spot_runs(fits: dict, candidates: list[str]) -> tuple[int, dict, list[str]]:
+    """(people, {variant: rows}, rooms) of a ``--task-spot`` group: the largest fit holding every
+    candidate, and the rooms where each was scored on its validation and held-out people."""
+    people = [p for p in {p for p, _ in fits} if all((p, v) in fits for v in candidates)]
+    if not people:
+        raise SystemExit(f"--task-spot: no fit holds every one of {' '.join(candidates)}")
+    runs = {v: fits[max(people), v] for v in candidates}
+    rooms = sorted(set.intersection(*({r for r, k in rows if k == "val"} & scored_rooms(rows)
+                                      for rows in runs.values())))
+    if not rooms:
+        raise SystemExit(f"--task-spot: no room has validation rows for all of {' '.join(candidates)} "
+                         "(fitted before validation was scored: fit them again)")
+    return max(people), runs, rooms
+
+
+def task_spot_means(named: list[tuple[str, dict]], rooms: list[str]) -> list[str]:
+    """Each (name, rows) averaged over ``rooms``, paired with the first (ours)."""
+    ours = named[0][1]
+    lines = [f"Mean over the {len(rooms)} rooms; paired: minus ours (mean +- standard error over the rooms), "
+             "test / simulated people:",
+             "| method | six-way (test) | six-way (simulated) | error (test) | error (simulated) | paired six-way |"
+             " paired error |", "|---|---|---|---|---|---|---|"]
+    for name, rows in named:
+        cells = [f"{room_mean(rows, rooms, kind, k):.1f}{unit}" for k, unit in (("posture_accuracy", "%"),
+                 ("error_cm", " cm")) for kind in ("fit", "heldout")]
+        pair = lambda k, unit="": "" if rows is ours else " / ".join(
+            paired_change(ours, rows, rooms, kind, k) + unit for kind in ("fit", "heldout"))
+        lines.append(f"| {name} | " + " | ".join(cells) + f" | {pair('posture_accuracy')} | {pair('error_cm', ' cm')} |")
     return lines
 
 
