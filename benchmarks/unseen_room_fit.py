@@ -43,7 +43,8 @@ again: ``train.imaging.relit_hidden_region``), e.g. ``16+e120+lux0``, ``16+e120+
 The spot chosen by the task: ``+rankK`` trains and tests under the fitted room's K-th best spot by
 SNR (K = 2..6; the fit's own spot is rank 1), and ``--task-spot V1 V2 ...`` (summary) picks per
 room the candidate spot whose network reads posture best on its validation people, e.g.
-``--task-spot 16+e120+lux0 16+e120+rank2+lux0 16+e120+rank3+lux0 16+e120+adaptive+lux0``. Every
+``--task-spot 16+e120+lux0 16+e120+rank2+lux0 16+e120+rank3+lux0 16+e120+adaptive+lux0``
+(summary-task-spot.md). Every
 variant is also scored on its validation people (rows 'val:') for that choice.
 
 Writes ``--out``/room-fit-FIRST-LAST.csv (room, variant, spot, people, posture_accuracy, posture3_accuracy, error_cm,
@@ -439,7 +440,7 @@ def main() -> None:
     ap.add_argument("--task-spot", nargs="+", action="append", default=[], metavar="VARIANT",
                     help="summary: the spot chosen by the task among these variants' spots (ours first, e.g. "
                          "16+e120+lux0 16+e120+rank2+lux0 16+e120+adaptive+lux0): per room the one whose network "
-                         "reads posture best on its validation people (repeatable)")
+                         "reads posture best on its validation people (repeatable), to summary-task-spot.md")
     args = ap.parse_args()
     if args.summary_only:
         return summary(args)
@@ -487,6 +488,8 @@ def summary(args) -> None:
             fits.setdefault((int(r["people"]), r["variant"]), {})[r["room"], r["spot"].split(":")[0]] = r
     if args.hidden_light:
         return hidden_light_summary(args, fits)
+    if args.task_spot:
+        return task_spot_summary(args, fits)
     rooms = sorted({room for rows in fits.values() for room, _ in rows})
     index = [int(r.split("-")[-1]) for r in rooms]
     lines = [f"{len(rooms)} test rooms ({', '.join(rooms)}), static people; one frame unless stated; last column: "
@@ -531,7 +534,7 @@ def summary(args) -> None:
         lines.append(f"{people} people, variant {variant}: the spot chosen from the simulated people is the test "
                      f"people's oracle in {same} of {len(done)} rooms.")
     lines += people_curve(fits) + variant_pairs(fits, args.pair) + methods_table(fits, args.out)
-    lines += hidden_light_table(fits, args.test) + task_spot_tables(fits, args.task_spot)
+    lines += hidden_light_table(fits, args.test)
     for variants in args.ensemble:
         lines += ensembles(args.out, rooms, variants)
     text = "\n".join(lines)
@@ -544,7 +547,7 @@ def hidden_light_summary(args, fits: dict) -> None:
     """``--hidden-light``: the methods table of each '+lux' light (the variants that share it) and
     :func:`hidden_light_table`, written to summary-hidden-light.md."""
     dark = {k: rows for k, rows in fits.items() if parse_variant(k[1]).hidden_lux is not None}
-    lines = methods_table(dark, args.out) + hidden_light_table(fits, args.test) + task_spot_tables(fits, args.task_spot)
+    lines = methods_table(dark, args.out) + hidden_light_table(fits, args.test)
     if not lines:
         raise SystemExit(f"--hidden-light: no '+lux' variant fitted under {args.out}")
     text = "\n".join(lines).lstrip("\n")
@@ -822,6 +825,13 @@ def variant_pairs(fits: dict, pairs: list) -> list[str]:
                   f"| {delta('fit', 'posture_accuracy')} | {delta('heldout', 'posture_accuracy')} | "
                   f"{delta('fit', 'error_cm', ' cm')} | {delta('heldout', 'error_cm', ' cm')} |"]
     return lines
+
+
+def task_spot_summary(args, fits: dict) -> None:
+    """``--task-spot``: :func:`task_spot_tables`, written to summary-task-spot.md."""
+    text = "\n".join(task_spot_tables(fits, args.task_spot)).lstrip("\n")
+    print(text)
+    (args.out / "summary-task-spot.md").write_text(text + "\n")
 
 
 def task_spot_tables(fits: dict, groups: list) -> list[str]:
