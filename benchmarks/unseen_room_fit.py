@@ -829,17 +829,19 @@ def variant_pairs(fits: dict, pairs: list) -> list[str]:
 
 def task_spot_summary(args, fits: dict) -> None:
     """``--task-spot``: :func:`task_spot_tables`, written to summary-task-spot.md."""
-    text = "\n".join(task_spot_tables(fits, args.task_spot)).lstrip("\n")
+    text = "\n".join(task_spot_tables(fits, args.task_spot, args.out)).lstrip("\n")
     print(text)
     (args.out / "summary-task-spot.md").write_text(text + "\n")
 
 
-def task_spot_tables(fits: dict, groups: list) -> list[str]:
+def task_spot_tables(fits: dict, groups: list, out: Path) -> list[str]:
     """``--task-spot V1 V2 ...``: the spot chosen by the task. In each room, of the candidates'
     networks (the same people and training under different spots, V1 ours), the one whose six-way on
     its 100 validation people is highest (ties: lower validation error); scored on the test and the
     held-out simulated people, which took no part in the choice. Beside it each candidate, and the
-    candidate a choice by the held-out people would make (hindsight: what a perfect choice reaches)."""
+    candidate a choice by the held-out people would make (hindsight: what a perfect choice reaches).
+    Where the runs' validation predictions are under ``out``, also the choice by the validation
+    people's posture log-loss, a score less grainy than the count of right answers."""
     lines = []
     for candidates in groups:
         people, runs, rooms = task_spot_runs(fits, candidates)
@@ -847,6 +849,9 @@ def task_spot_tables(fits: dict, groups: list) -> list[str]:
         pick = lambda r, kind: max(candidates, key=lambda v: (acc(v, r, kind), -float(runs[v][r, kind]["error_cm"])))
         chosen = {r: pick(r, "val") for r in rooms}
         hindsight = {r: pick(r, "heldout") for r in rooms}
+        loss = {(v, r): validation_log_loss(run_dir(out / r, v)) for v in candidates for r in rooms}
+        by_loss = ({r: min(candidates, key=lambda v: loss[v, r]) for r in rooms}
+                   if None not in loss.values() else None)
         lines += ["", f"The spot chosen by the task ({people} simulated people a room, "
                       f"{parse_variant(candidates[0]).describe()}): in each room the candidate whose network reads "
                       "posture best on its 100 validation people; six-way validation / held-out simulated / test "
@@ -861,13 +866,29 @@ def task_spot_tables(fits: dict, groups: list) -> list[str]:
         named = [(method_name(v), runs[v]) for v in candidates] + [
             ("task-chosen spot (by validation)", as_rows(chosen)),
             ("hindsight (by the held-out simulated people)", as_rows(hindsight))]
+        if by_loss is not None:  # before hindsight: named[-2] stays the by-six-way choice below
+            named.insert(-1, ("task-chosen spot (by validation log-loss)", as_rows(by_loss)))
         lines += task_spot_means(named, rooms)
         same = sum(chosen[r] == hindsight[r] for r in rooms)
         lines.append(f"The validation people chose the hindsight candidate in {same} of {len(rooms)} rooms; the "
                      "task-chosen spot minus each candidate, six-way test / simulated: " + "; ".join(
-                         f"{name} " + " / ".join(paired_change(rows, named[-2][1], rooms, kind, "posture_accuracy")
-                                                 for kind in ("fit", "heldout")) for name, rows in named[1:-2]) + ".")
+                         f"{name} " + " / ".join(paired_change(rows, as_rows(chosen), rooms, kind, "posture_accuracy")
+                                                 for kind in ("fit", "heldout")) for name, rows in named[1:len(candidates)]) + ".")
+        if by_loss is not None:
+            lines.append("Chosen by the validation log-loss: " + ", ".join(
+                f"{r} {method_name(by_loss[r])} ({' / '.join(f'{loss[v, r]:.2f}' for v in candidates)})" for r in rooms)
+                + f"; the held-out candidate in {sum(by_loss[r] == hindsight[r] for r in rooms)} of {len(rooms)} rooms.")
     return lines
+
+
+def validation_log_loss(run: Path) -> float | None:
+    """Mean -log p(true posture) of a run's validation people (``predictions-val.npz``), or None."""
+    path = run / "predictions-val.npz"
+    if not path.exists():
+        return None
+    with np.load(path) as z:
+        p = z["posture_prob"][np.arange(len(z["true_posture"])), z["true_posture"]]
+    return float(-np.log(np.clip(p, 1e-12, None)).mean())
 
 
 def task_spot_runs(fits: dict, candidates: list[str]) -> tuple[int, dict, list[str]]:
