@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import NlosError
-from .base import Illumination
+from .base import Illumination, PolicyFn
 from .snr import candidate_snr
 
 
@@ -31,7 +31,7 @@ def snr_order(scene, scene_dir: Path) -> list[int]:
     return [int(t) for t in np.argsort(-values, kind="stable") if landed[t]]
 
 
-def ranked_oracle(rank: int):
+def ranked_oracle(rank: int) -> PolicyFn:
     """The policy 'oracle-RANK': the landed candidate of the RANK-th highest SNR (rank 1 is
     :func:`oracle_spot`). SNR is a proxy for the task; a runner-up spot may read posture better,
     which only training on it can tell (``benchmarks/unseen_room_fit.py``'s task-chosen spot)."""
