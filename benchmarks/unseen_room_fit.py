@@ -65,6 +65,7 @@ import numpy as np
 import torch
 
 from nlos_spotlight.errors import NlosError
+from nlos_spotlight.lighting.oracle import SNR_RANKS
 
 COLUMNS = ["room", "variant", "spot", "people", "posture_accuracy", "posture3_accuracy", "error_cm", "mean_answer_cm",
            "test_people", "render_s", "train_s"]
@@ -141,7 +142,7 @@ class Variant:
 
 
 LIGHTS = {"adaptive": "Adaptive Lighting spot", "center": "center spot", "flash": "flash", "ambient": "projector off",
-          **{f"rank{k}": f"spot of SNR rank {k}" for k in range(2, 7)}}
+          **{f"rank{k}": f"spot of SNR rank {k}" for k in SNR_RANKS}}
 """'+NAME': train and test under this fixed policy (``lighting.POLICIES``) instead of the fitted spot;
 '+rankK': the fitted room's K-th best spot by its simulated people's SNR (the fit's spot is rank 1)."""
 
@@ -863,16 +864,16 @@ def task_spot_tables(fits: dict, groups: list, out: Path) -> list[str]:
                      f"({runs[v][r, 'fit']['spot'].split(':')[1]})" for v in candidates]
             lines.append(f"| {r} | " + " | ".join(cells) + f" | {method_name(chosen[r])} | {method_name(hindsight[r])} |")
         as_rows = lambda choice: {(r, k): runs[choice[r]][r, k] for r in rooms for k in ("fit", "heldout")}
-        named = [(method_name(v), runs[v]) for v in candidates] + [
-            ("task-chosen spot (by validation)", as_rows(chosen)),
-            ("hindsight (by the held-out simulated people)", as_rows(hindsight))]
-        if by_loss is not None:  # before hindsight: named[-2] stays the by-six-way choice below
-            named.insert(-1, ("task-chosen spot (by validation log-loss)", as_rows(by_loss)))
+        chosen_rows = as_rows(chosen)
+        named = [(method_name(v), runs[v]) for v in candidates] + [("task-chosen spot (by validation)", chosen_rows)]
+        if by_loss is not None:
+            named.append(("task-chosen spot (by validation log-loss)", as_rows(by_loss)))
+        named.append(("hindsight (by the held-out simulated people)", as_rows(hindsight)))
         lines += task_spot_means(named, rooms)
         same = sum(chosen[r] == hindsight[r] for r in rooms)
         lines.append(f"The validation people chose the hindsight candidate in {same} of {len(rooms)} rooms; the "
                      "task-chosen spot minus each candidate, six-way test / simulated: " + "; ".join(
-                         f"{name} " + " / ".join(paired_change(rows, as_rows(chosen), rooms, kind, "posture_accuracy")
+                         f"{name} " + " / ".join(paired_change(rows, chosen_rows, rooms, kind, "posture_accuracy")
                                                  for kind in ("fit", "heldout")) for name, rows in named[1:len(candidates)]) + ".")
         if by_loss is not None:
             lines.append("Chosen by the validation log-loss: " + ", ".join(

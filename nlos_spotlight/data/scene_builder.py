@@ -259,14 +259,14 @@ def choose_spots(cfg: DatasetConfig, plan, scene_dir: Path) -> dict:
     ``spots`` is their sorted union: slot k of an image sample holds candidate ``spots[k]``.
     """
     from ..lighting import POLICIES, policy_rng
+    from ..lighting.oracle import by_snr
     from ..lighting.snr import candidate_snr
     from .tensors import load_scene_tensors
 
     scene_dir = Path(scene_dir)
     snr = np.asarray(candidate_snr(scene_dir), np.float64)
     landed = np.asarray(np.load(scene_dir / "static.npz")["spot_landed"], bool)
-    order = [int(t) for t in np.argsort(-snr, kind="stable") if landed[t]]
-    top = order[:cfg.stored_spots_top]
+    top = by_snr(snr, landed)[:cfg.stored_spots_top]
     s = load_scene_tensors(scene_dir, [], samples="transport")
     i = split_position(cfg, plan.index)
     policies: dict = {}

@@ -9,14 +9,14 @@ from .adaptive import adaptive_spot
 from .base import PolicyFn
 from .center import center_spot
 from .flash import flash_illumination
-from .oracle import oracle_spot, ranked_oracle
+from .oracle import SNR_RANKS, oracle_spot, ranked_oracle
 
 EXTRA_POLICIES: dict[str, PolicyFn] = {
     "center": center_spot,
     "oracle": oracle_spot,
     "adaptive": adaptive_spot,
     "flash": flash_illumination,
-    **{f"oracle-{k}": ranked_oracle(k) for k in range(2, 7)},
+    **{f"oracle-{k}": ranked_oracle(k) for k in SNR_RANKS},
 }
 """center: middle of the camera view; oracle: best SNR with the true materials (upper bound);
 oracle-K: the K-th best SNR (K = 2..6, the runners-up a dataset stores by default);

@@ -22,12 +22,21 @@ def oracle_spot(scene, scene_dir: Path, rng: np.random.Generator) -> Illuminatio
     return Illumination("spot", snr_order(scene, scene_dir)[0])
 
 
+SNR_RANKS = range(2, 7)
+"""The runner-up ranks with a policy 'oracle-K' (those a dataset stores by default, ``stored_spots_top``)."""
+
+
 def snr_order(scene, scene_dir: Path) -> list[int]:
-    """The landed candidates, highest mean NLOS SNR first (ties: lowest index first)."""
+    """The landed candidates of a scene, highest mean NLOS SNR first (:func:`by_snr`)."""
     values = candidate_snr(scene_dir)
     landed = scene.landed.cpu().numpy().astype(bool)
     if len(values) != len(landed):
         raise NlosError(f"{scene_dir}: {len(values)} stored candidates, the scene tensors have {len(landed)}")
+    return by_snr(values, landed)
+
+
+def by_snr(values: np.ndarray, landed: np.ndarray) -> list[int]:
+    """The landed candidates, highest SNR ``values`` first (ties: lowest index first)."""
     return [int(t) for t in np.argsort(-values, kind="stable") if landed[t]]
 
 
