@@ -433,7 +433,8 @@ def main() -> None:
                     help="summary: only the '+lux' variants (every method in that light, and each beside itself and "
                          "ours in the rooms' own light), to summary-hidden-light.md")
     ap.add_argument("--pair", nargs=2, action="append", default=[], metavar=("BASE", "OTHER"),
-                    help="summary: OTHER - BASE paired by room on the rooms fitted with both variants (repeatable)")
+                    help="summary: OTHER - BASE paired by room on the rooms fitted with both variants (repeatable); "
+                         "variants joined by commas count as their mean per room (e.g. training seeds)")
     ap.add_argument("--ensemble", nargs="+", action="append", default=[], metavar="VARIANT",
                     help="summary: the networks of these variants (e.g. two training seeds, or a spot's and the "
                          "projector-off photograph's) averaged, on the rooms where all were scored: posture "
@@ -810,22 +811,39 @@ def people_steps(base: str, sizes: dict) -> list[str]:
 
 def variant_pairs(fits: dict, pairs: list) -> list[str]:
     """``--pair BASE OTHER``: OTHER - BASE on the rooms scored with both (a variant named by several
-    people counts, e.g. '1' of the 1,200- and 3,000-people fits: the one sharing the most rooms)."""
+    people counts, e.g. '1' of the 1,200- and 3,000-people fits: the one sharing the most rooms).
+    BASE or OTHER may join variants with commas (e.g. a method's training seeds): their mean per
+    room, on the rooms scored with all of them, so the standard error is over rooms only."""
     lines = []
     for base, other in pairs:
+        group = base.split(",") + other.split(",")
         keys = lambda v: [k for k in fits if k[1] == v]
-        common = lambda a, b: scored_rooms(fits[a]) & scored_rooms(fits[b])
-        best = max(((a, b) for a in keys(base) for b in keys(other)), key=lambda ab: len(common(*ab)), default=None)
-        if best is None or not common(*best):
-            raise SystemExit(f"--pair {base} {other}: no room scored with both variants")
-        rooms = sorted(common(*best))
-        delta = lambda kind, k, unit="": paired_change(fits[best[0]], fits[best[1]], rooms, kind, k) + unit
-        lines += ["", f"{other} - {base} on the {len(rooms)} rooms scored with both ({', '.join(rooms)}; paired "
-                      "change, mean +- standard error over the rooms):",
+        common = lambda ks: set.intersection(*(scored_rooms(fits[k]) for k in ks))
+        choices = [[]]
+        for v in group:  # every way of picking one (people, variant) per name; keep the widest
+            choices = [c + [k] for c in choices for k in keys(v)]
+        best = max(choices, key=lambda ks: len(common(ks)) if ks else 0, default=None)
+        if not best or len(best) < len(group) or not common(best):
+            raise SystemExit(f"--pair {base} {other}: no room scored with every variant")
+        rooms = sorted(common(best))
+        n = len(base.split(","))
+        before, after = seed_mean([fits[k] for k in best[:n]], rooms), seed_mean([fits[k] for k in best[n:]], rooms)
+        delta = lambda kind, k, unit="": paired_change(before, after, rooms, kind, k) + unit
+        name = lambda spec: spec if "," not in spec else f"mean of ({spec.replace(',', ', ')})"
+        lines += ["", f"{name(other)} - {name(base)} on the {len(rooms)} rooms scored with both ({', '.join(rooms)}; "
+                      "paired change, mean +- standard error over the rooms):",
                   "| six-way (test) | six-way (simulated) | error (test) | error (simulated) |", "|---|---|---|---|",
                   f"| {delta('fit', 'posture_accuracy')} | {delta('heldout', 'posture_accuracy')} | "
                   f"{delta('fit', 'error_cm', ' cm')} | {delta('heldout', 'error_cm', ' cm')} |"]
     return lines
+
+
+def seed_mean(runs: list[dict], rooms: list[str]) -> dict:
+    """Rows {(room, kind): {key: value}} averaging ``runs`` (one variant's rows each) on ``rooms``,
+    for the test and held-out simulated people's six-way and error."""
+    keys = ("posture_accuracy", "error_cm")
+    return {(r, kind): {k: np.mean([float(rows[r, kind][k]) for rows in runs]) for k in keys}
+            for r in rooms for kind in ("fit", "heldout")}
 
 
 def task_spot_summary(args, fits: dict) -> None:
