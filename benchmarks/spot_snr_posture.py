@@ -16,9 +16,9 @@ posture differences are flat in SNR, the choice among spots of similar SNR is a 
 
 A group joined by commas (training seeds) counts as its mean per room, against the mean of ours
 with the same seeds ('--base V' with '+sN' appended for seed N): a room counts where every member
-and its seed of ours were fitted. Writes the CSV (one row per room and other spot) and prints the table, the least-squares slope of the six-way difference on
-log2 of the SNR ratio with its standard error, and the mean difference by range of that ratio
-(:data:`BINS`).
+and its seed of ours were fitted. Writes the CSV (one row per room and other spot) and prints the
+table, the least-squares slope of the six-way difference on log2 of the SNR ratio with its standard
+error, and the mean difference by range of that ratio (:data:`BINS`).
 """
 
 from __future__ import annotations
@@ -97,7 +97,8 @@ def points(args) -> list[dict]:
                 snrs[room] = test_room_snr(args.test, room)
             snr = snrs[room]
             rank = int((snr > snr[other["face"]]).sum()) + 1
-            out.append(dict(room=room, base=",".join(same_seeds(args.base, group)), other=spec, base_face=ours["face"], other_face=other["face"],
+            out.append(dict(room=room, base=",".join(same_seeds(args.base, group)), other=spec,
+                            base_face=ours["face"], other_face=other["face"],
                             base_snr=f"{snr[ours['face']]:.4g}", other_snr=f"{snr[other['face']]:.4g}",
                             oracle_snr=f"{snr.max():.4g}", other_rank=rank, seeds=len(spec.split(",")),
                             six_way_test_diff=f"{other['test'] - ours['test']:.2f}",
@@ -118,12 +119,14 @@ def slope(x: np.ndarray, y: np.ndarray) -> str:
 
 
 def report(pts: list[dict]) -> list[str]:
+    """The points' table, the slope of six-way on log2 SNR ratio, and the means by ratio range."""
     lines = ["| room | other spot | seeds | faces (ours, other) | SNR over ours' (test people) | other's SNR rank | "
-             "six-way minus ours (test / simulated) | error minus ours (simulated) |", "|---|---|---|---|---|---|---|---|"]
+             "six-way minus ours (test / simulated) | error minus ours (simulated) |", "|---" * 8 + "|"]
     for p in pts:
         ratio = float(p["other_snr"]) / float(p["base_snr"])
-        lines.append(f"| {p['room']} | {p['other'].split(',')[0]} | {p['seeds']} | {p['base_face']}, {p['other_face']} | "
-                     f"{ratio:.2f} | {p['other_rank']} | {float(p['six_way_test_diff']):+.1f} / "
+        shown = f"{ratio:.2f}" if ratio >= 0.1 else f"{ratio:.2g}"  # a dark corner's spot: 0.0014, not 0.00
+        lines.append(f"| {p['room']} | {p['other'].split(',')[0]} | {p['seeds']} | {p['base_face']}, "
+                     f"{p['other_face']} | {shown} | {p['other_rank']} | {float(p['six_way_test_diff']):+.1f} / "
                      f"{float(p['six_way_sim_diff']):+.1f} | {float(p['error_sim_diff_cm']):+.1f} cm |")
     x = np.log2([float(p["other_snr"]) / float(p["base_snr"]) for p in pts])
     for kind, key in (("test", "six_way_test_diff"), ("simulated", "six_way_sim_diff")):
@@ -135,9 +138,14 @@ def report(pts: list[dict]) -> list[str]:
         if sel:
             mean = lambda key: np.mean([float(p[key]) for p in sel])
             span = f"{lo:g}-{hi:g}x" if np.isfinite(hi) else f"at least {lo:g}x"
-            lines.append(f"Other spot of {span} ours' SNR ({len(sel)} points, {len({p['room'] for p in sel})} "
-                         f"rooms): six-way minus ours {mean('six_way_test_diff'):+.1f} / {mean('six_way_sim_diff'):+.1f} "
-                         f"(test / simulated), error {mean('error_sim_diff_cm'):+.1f} cm (simulated).")
+            rooms = len({p["room"] for p in sel})
+            xs = np.log2([float(p["other_snr"]) / float(p["base_snr"]) for p in sel])
+            within = " / ".join(slope(xs, np.array([float(p[k]) for p in sel]))
+                                for k in ("six_way_test_diff", "six_way_sim_diff"))
+            lines.append(f"Other spot of {span} ours' SNR ({len(sel)} points, {rooms} rooms): six-way minus ours "
+                         f"{mean('six_way_test_diff'):+.1f} / {mean('six_way_sim_diff'):+.1f} (test / simulated), "
+                         f"error {mean('error_sim_diff_cm'):+.1f} cm (simulated); slope within the range {within} "
+                         "points per doubling.")
     return lines
 
 
@@ -145,8 +153,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--test", type=Path, required=True, help="test dataset (unseen-test.yaml)")
     ap.add_argument("--fits", type=Path, required=True, help="unseen_room_fit.py --out folder (room-fit-*.csv)")
-    ap.add_argument("--base", required=True, help="ours, seed 0 (e.g. 16+e120+lux0; its '+sN' variants are the seeds)")
-    ap.add_argument("--others", nargs="+", required=True, metavar="GROUP", help="the other spots' variants, training seeds joined by commas")
+    ap.add_argument("--base", required=True,
+                    help="ours, seed 0 (e.g. 16+e120+lux0; its '+sN' variants are the seeds)")
+    ap.add_argument("--others", nargs="+", required=True, metavar="GROUP",
+                    help="the other spots' variants, training seeds joined by commas")
     ap.add_argument("--out", type=Path, default=None, help="CSV of the points")
     args = ap.parse_args()
     pts = points(args)
