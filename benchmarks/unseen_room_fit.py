@@ -435,6 +435,8 @@ def main() -> None:
     ap.add_argument("--pair", nargs=2, action="append", default=[], metavar=("BASE", "OTHER"),
                     help="summary: OTHER - BASE paired by room on the rooms fitted with both variants (repeatable); "
                          "variants joined by commas count as their mean per room (e.g. training seeds)")
+    ap.add_argument("--pair-out", type=Path, default=None, metavar="PATH",
+                    help="summary: also write the --pair tables alone to PATH")
     ap.add_argument("--ensemble", nargs="+", action="append", default=[], metavar="VARIANT",
                     help="summary: the networks of these variants (e.g. two training seeds, or a spot's and the "
                          "projector-off photograph's) averaged, on the rooms where all were scored: posture "
@@ -535,7 +537,10 @@ def summary(args) -> None:
         same = sum(rows[r, "fit"]["spot"].split(":")[1] == rows[r, "oracle"]["spot"].split(":")[1] for r in done)
         lines.append(f"{people} people, variant {variant}: the spot chosen from the simulated people is the test "
                      f"people's oracle in {same} of {len(done)} rooms.")
-    lines += people_curve(fits) + variant_pairs(fits, args.pair) + methods_table(fits, args.out)
+    pairs = variant_pairs(fits, args.pair)
+    if args.pair_out:  # the pairs alone, for a results page
+        args.pair_out.write_text("\n".join(pairs).lstrip("\n") + "\n")
+    lines += people_curve(fits) + pairs + methods_table(fits, args.out)
     lines += hidden_light_table(fits, args.test)
     for variants in args.ensemble:
         lines += ensembles(args.out, rooms, variants)
