@@ -88,6 +88,9 @@ def points(args) -> list[dict]:
             ours, other = group_score(rows, same_seeds(args.base, group), room), group_score(rows, group, room)
             if ours is None or other is None:
                 continue
+            if other["face"] == ours["face"]:  # e.g. AL's heuristic picked ours' face: no other spot to compare
+                print(f"{room}: {spec} lit ours' face {ours['face']}; left out")
+                continue
             twin = [q for q in out if q["room"] == room and q["other_face"] == other["face"]
                     and q["seeds"] == len(group)]
             if twin:  # the same face and seeds: the same training (e.g. AL's spot is rank 2 there)
