@@ -43,10 +43,13 @@ def fitted_rows(fits: Path) -> dict:
     where a variant was fitted with several)."""
     rows = {}
     for path in sorted(fits.glob("room-fit-*.csv")):
-        for r in read_fit_rows(path):
-            key = (r["variant"], r["room"], r["spot"].split(":")[0])
-            if key not in rows or int(r["people"]) > int(rows[key]["people"]):
-                rows[key] = r
+        try:
+            for r in read_fit_rows(path):
+                key = (r["variant"], r["room"], r["spot"].split(":")[0])
+                if key not in rows or int(r["people"]) > int(rows[key]["people"]):
+                    rows[key] = r
+        except (KeyError, ValueError, TypeError, AttributeError) as exc:
+            raise SystemExit(f"{path}: not a room-fit CSV ({type(exc).__name__}: {exc})") from None
     return rows
 
 
@@ -66,9 +69,13 @@ def group_score(rows: dict, group: list[str], room: str) -> dict | None:
 
 def test_room_snr(test: Path, room: str) -> np.ndarray:
     """(T,) SNR of every candidate spot on the test room's own static people."""
+    from nlos_spotlight.errors import NlosError
     from nlos_spotlight.lighting.snr import scene_snr
 
-    return scene_snr(test / "scenes" / room).candidates
+    try:
+        return scene_snr(test / "scenes" / room).candidates
+    except (NlosError, OSError, KeyError, ValueError) as exc:
+        raise SystemExit(f"{test / 'scenes' / room}: cannot measure its spots' SNR ({exc})") from None
 
 
 def same_seeds(base: str, group: list[str]) -> list[str]:
