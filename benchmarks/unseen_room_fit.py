@@ -827,8 +827,8 @@ def variant_pairs(fits: dict, pairs: list) -> list[str]:
         choices = [[]]
         for v in group:  # every way of picking one (people, variant) per name; keep the widest
             choices = [c + [k] for c in choices for k in keys(v)]
-        best = max(choices, key=lambda ks: len(common(ks)) if ks else 0, default=None)
-        if not best or len(best) < len(group) or not common(best):
+        best = max(choices, key=lambda ks: len(common(ks)), default=None)  # None: a name never fitted
+        if best is None or not common(best):
             raise SystemExit(f"--pair {base} {other}: no room scored with every variant")
         rooms = sorted(common(best))
         n = len(base.split(","))
