@@ -12,13 +12,15 @@ posture differences are flat in SNR, the choice among spots of similar SNR is a 
     python benchmarks/spot_snr_posture.py --test out/unseen/test --fits out/unseen/room-fit-3000 \
         --base 16+e120+lux0 --others 16+e120+adaptive+lux0,16+e120+adaptive+lux0+s1 \
         16+e120+rank2+lux0,16+e120+rank2+lux0+s1 16+e120+rank3+lux0,16+e120+rank3+lux0+s1 16+e120+rank4+lux0 \
+        16+e120+center+lux0,16+e120+center+lux0+s1 16+e120+center+lux0 \
         --out docs/results/unseen-room-fit-3000/spot-snr-posture.csv
 
-A group joined by commas (training seeds) counts as its mean per room, against the mean of ours
-with the same seeds ('--base V' with '+sN' appended for seed N): a room counts where every member
-and its seed of ours were fitted. Writes the CSV (one row per room and other spot) and prints the
-table, the least-squares slope of the six-way difference on log2 of the SNR ratio with its standard
-error, and the mean difference by range of that ratio (:data:`BINS`).
+A group joined by commas (training seeds) counts as its mean per room, against the mean of ours with
+the same seeds ('--base V' with '+sN' appended for seed N): a room counts where every member and its
+seed of ours were fitted. A face already counted in a room (an earlier group's) is not counted
+again, so name a spot's seeds before its single seed. Writes the CSV (one row per room and other
+spot) and prints the table, the least-squares slope of the six-way difference on log2 of the SNR
+ratio with its standard error, and the mean difference by range of that ratio (:data:`BINS`).
 """
 
 from __future__ import annotations
@@ -98,9 +100,8 @@ def points(args) -> list[dict]:
             if other["face"] == ours["face"]:  # e.g. AL's heuristic picked ours' face: no other spot to compare
                 print(f"{room}: {spec} lit ours' face {ours['face']}; left out")
                 continue
-            twin = [q for q in out if q["room"] == room and q["other_face"] == other["face"]
-                    and q["seeds"] == len(group)]
-            if twin:  # the same face and seeds: the same training (e.g. AL's spot is rank 2 there)
+            twin = [q for q in out if q["room"] == room and q["other_face"] == other["face"]]
+            if twin:  # the same face: counted once, as the first group naming it (AL's spot is rank 2 there)
                 print(f"{room}: {spec} lit face {other['face']} as {twin[0]['other']} did; counted once")
                 continue
             if room not in snrs:
