@@ -9,7 +9,10 @@ Per scene SNR_t is averaged over the static samples; then
 * oracle: the best candidate (exhaustive search),
 * center: the candidate whose aim point is nearest the center of the camera image,
 * random: the mean over candidates whose spot lands (the expected value of a random choice),
-* ambient only: no projector; the signal is ``nlos_ambient``, exposure on ``ambient``.
+* ambient only: no projector; the signal is ``nlos_ambient``, exposure on ``ambient``;
+* with ``--adaptive``, Adaptive Lighting's spot (the ``adaptive`` policy, which reads the scan only)
+  and its SNR over the oracle's, with the share of rooms below 0.62x and 0.75x of it (a fitted
+  room's posture does not drop between 0.62x and 1x: docs/results.md, "Does the spot matter in the dark?").
 
 Also, in radiance (before any exposure): the person's light with the projector off over the
 person's light under the oracle spot, sum |nlos_ambient| / sum |nlos_oracle| ("amb/or light"); and
@@ -60,7 +63,16 @@ def ambient_light(scene_dir: Path, st, scene, oracle: int) -> tuple[float, float
     return amb / max(spot_sum, 1e-30), float(np.mean(amb_snr))
 
 
-def scene_snrs(scene_dir: Path) -> dict:
+def adaptive_candidate(scene_dir: Path) -> int:
+    """The candidate Adaptive Lighting lights in a scene (deterministic: it reads the scan only)."""
+    from nlos_spotlight.data.tensors import load_scene_tensors
+    from nlos_spotlight.lighting import POLICIES, policy_rng
+
+    s = load_scene_tensors(scene_dir, [], samples="transport")
+    return int(POLICIES["adaptive"](s, scene_dir, policy_rng(0, 0, new_room=True)).face)
+
+
+def scene_snrs(scene_dir: Path, adaptive: bool = False) -> dict:
     st = np.load(scene_dir / "static.npz")
     landed = st["spot_landed"]
     r = scene_snr(scene_dir)
@@ -68,10 +80,13 @@ def scene_snrs(scene_dir: Path) -> dict:
     scene = load_scene(scene_dir)
     center = center_candidate(scene.camera, st["aim_points"], landed)
     ratio, amb_in_oracle = ambient_light(scene_dir, st, scene, int(mean_t.argmax()))
-    return {"oracle": float(mean_t.max()), "center": float(mean_t[center]),
-            "random": float(mean_t[landed].mean()), "ambient_only": r.ambient,
-            "family": str(st["family"]), "candidates": int(landed.sum()),
-            "ambient_light_ratio": ratio, "ambient_in_oracle": amb_in_oracle}
+    out = {"oracle": float(mean_t.max()), "center": float(mean_t[center]),
+           "random": float(mean_t[landed].mean()), "ambient_only": r.ambient,
+           "family": str(st["family"]), "candidates": int(landed.sum()),
+           "ambient_light_ratio": ratio, "ambient_in_oracle": amb_in_oracle}
+    if adaptive:
+        out["adaptive"] = float(mean_t[adaptive_candidate(scene_dir)])
+    return out
 
 
 def main() -> None:
@@ -80,12 +95,13 @@ def main() -> None:
     ap.add_argument("--split", default="test")
     ap.add_argument("--rooms", type=int, default=0, help="only the split's first ROOMS scenes (0: all)")
     ap.add_argument("--json", help="also write the numbers here")
+    ap.add_argument("--adaptive", action="store_true", help="also Adaptive Lighting's spot (its SNR over the oracle's)")
     args = ap.parse_args()
     try:  # a dataset generated in shards and not merged: the scenes finished so far
         scenes = finished_scene_dirs(args.data, args.split)[:args.rooms or None]
         if not scenes:
             raise SystemExit(f"{args.data}: no finished {args.split} scenes")
-        rows = {d.name: scene_snrs(d) for d in scenes}
+        rows = {d.name: scene_snrs(d, args.adaptive) for d in scenes}
     except NlosError as exc:
         raise SystemExit(str(exc)) from None
     print(f"{'scene':12s} {'family':18s} {'T':>4s} {'oracle':>9s} {'center':>9s} {'random':>9s} {'ambient':>9s} "
@@ -107,6 +123,12 @@ def main() -> None:
     print(f"the hidden region's light on the person: SNR {mean['ambient_in_oracle']:.3g} in the oracle spot's "
           f"photograph against {mean['ambient_only']:.3g} with the projector off (median ratio {np.median(kept):.3f}, "
           f"range {min(kept):.3f}-{max(kept):.3f})")
+    if args.adaptive:
+        frac = np.array([r["adaptive"] / r["oracle"] for r in rows.values()])
+        print("Adaptive Lighting's SNR over the oracle's per room: " + ", ".join(
+            f"{sid} {f:.3f}" for sid, f in zip(rows, frac)))
+        print(f"Adaptive Lighting over the oracle: mean {frac.mean():.3f}, median {np.median(frac):.3f}; below "
+              f"0.62x in {int((frac < 0.62).sum())} of {len(frac)} rooms, below 0.75x in {int((frac < 0.75).sum())}")
     if args.json:
         Path(args.json).write_text(json.dumps({"scenes": rows, "mean": mean}, indent=1))
 
