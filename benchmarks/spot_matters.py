@@ -89,6 +89,11 @@ def scene_snrs(scene_dir: Path, adaptive: bool = False) -> dict:
     return out
 
 
+def over(a: float, b: float) -> float:
+    """a / b, infinite where b is 0 (a center spot that lands where the camera sees no person light)."""
+    return a / b if b > 0 else float("inf")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", required=True)
@@ -108,8 +113,8 @@ def main() -> None:
           f"{'or/cen':>7s} {'or/rnd':>7s} {'amb/or light':>12s} {'amb in or':>9s}")
     for sid, r in rows.items():
         print(f"{sid:12s} {r['family']:18s} {r['candidates']:4d} {r['oracle']:9.3g} {r['center']:9.3g} "
-              f"{r['random']:9.3g} {r['ambient_only']:9.3g} {r['oracle'] / r['center']:7.2f} "
-              f"{r['oracle'] / r['random']:7.2f} {r['ambient_light_ratio']:12.3f} {r['ambient_in_oracle']:9.3g}")
+              f"{r['random']:9.3g} {r['ambient_only']:9.3g} {over(r['oracle'], r['center']):7.2f} "
+              f"{over(r['oracle'], r['random']):7.2f} {r['ambient_light_ratio']:12.3f} {r['ambient_in_oracle']:9.3g}")
     mean = {k: float(np.mean([r[k] for r in rows.values()]))
             for k in ("oracle", "center", "random", "ambient_only", "ambient_in_oracle")}
     print(f"mean SNR: oracle {mean['oracle']:.3g}, center {mean['center']:.3g}, random {mean['random']:.3g}, "
