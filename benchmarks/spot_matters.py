@@ -66,10 +66,9 @@ def ambient_light(scene_dir: Path, st, scene, oracle: int) -> tuple[float, float
 def adaptive_candidate(scene_dir: Path) -> int:
     """The candidate Adaptive Lighting lights in a scene (deterministic: it reads the scan only)."""
     from nlos_spotlight.data.tensors import load_scene_tensors
-    from nlos_spotlight.lighting import POLICIES, policy_rng
+    from nlos_spotlight.evaluate.unseen import room_lights
 
-    s = load_scene_tensors(scene_dir, [], samples="transport")
-    return int(POLICIES["adaptive"](s, scene_dir, policy_rng(0, 0, new_room=True)).face)
+    return int(room_lights([load_scene_tensors(scene_dir, [], samples="transport")], "adaptive", 0)[0].face)
 
 
 def scene_snrs(scene_dir: Path, adaptive: bool = False) -> dict:

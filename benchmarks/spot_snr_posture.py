@@ -94,7 +94,8 @@ def points(args) -> list[dict]:
     for room in rooms:
         for spec in args.others:
             group = spec.split(",")
-            ours, other = group_score(rows, same_seeds(args.base, group), room), group_score(rows, group, room)
+            base = same_seeds(args.base, group)
+            ours, other = group_score(rows, base, room), group_score(rows, group, room)
             if ours is None or other is None:
                 continue
             if other["face"] == ours["face"]:  # e.g. AL's heuristic picked ours' face: no other spot to compare
@@ -108,10 +109,10 @@ def points(args) -> list[dict]:
                 snrs[room] = test_room_snr(args.test, room)
             snr = snrs[room]
             rank = int((snr > snr[other["face"]]).sum()) + 1
-            out.append(dict(room=room, base=",".join(same_seeds(args.base, group)), other=spec,
+            out.append(dict(room=room, base=",".join(base), other=spec,
                             base_face=ours["face"], other_face=other["face"],
                             base_snr=f"{snr[ours['face']]:.4g}", other_snr=f"{snr[other['face']]:.4g}",
-                            oracle_snr=f"{snr.max():.4g}", other_rank=rank, seeds=len(spec.split(",")),
+                            oracle_snr=f"{snr.max():.4g}", other_rank=rank, seeds=len(group),
                             six_way_test_diff=f"{other['test'] - ours['test']:.2f}",
                             six_way_sim_diff=f"{other['sim'] - ours['sim']:.2f}",
                             error_sim_diff_cm=f"{other['err_sim'] - ours['err_sim']:.2f}"))
@@ -129,28 +130,32 @@ def slope(x: np.ndarray, y: np.ndarray) -> str:
     return f"{coef[1]:+.1f} +- {np.sqrt(cov[1, 1]):.1f}"
 
 
+def ratio(p: dict) -> float:
+    """A point's other spot's SNR over ours'."""
+    return float(p["other_snr"]) / float(p["base_snr"])
+
+
 def report(pts: list[dict]) -> list[str]:
     """The points' table, the slope of six-way on log2 SNR ratio, and the means by ratio range."""
     lines = ["| room | other spot | seeds | faces (ours, other) | SNR over ours' (test people) | other's SNR rank | "
              "six-way minus ours (test / simulated) | error minus ours (simulated) |", "|---" * 8 + "|"]
     for p in pts:
-        ratio = float(p["other_snr"]) / float(p["base_snr"])
-        shown = f"{ratio:.2f}" if ratio >= 0.1 else f"{ratio:.2g}"  # a dark corner's spot: 0.0014, not 0.00
+        shown = f"{ratio(p):.2f}" if ratio(p) >= 0.1 else f"{ratio(p):.2g}"  # a dark corner's spot: 0.0014, not 0.00
         lines.append(f"| {p['room']} | {p['other'].split(',')[0]} | {p['seeds']} | {p['base_face']}, "
                      f"{p['other_face']} | {shown} | {p['other_rank']} | {float(p['six_way_test_diff']):+.1f} / "
                      f"{float(p['six_way_sim_diff']):+.1f} | {float(p['error_sim_diff_cm']):+.1f} cm |")
-    x = np.log2([float(p["other_snr"]) / float(p["base_snr"]) for p in pts])
+    x = np.log2([ratio(p) for p in pts])
     for kind, key in (("test", "six_way_test_diff"), ("simulated", "six_way_sim_diff")):
         y = np.array([float(p[key]) for p in pts])
         lines.append(f"Six-way minus ours on the {kind} people against log2(SNR over ours'), {len(pts)} points: slope "
                      f"{slope(x, y)} points per doubling of SNR; mean {y.mean():+.1f}.")
     for lo, hi in BINS:
-        sel = [p for p in pts if lo <= float(p["other_snr"]) / float(p["base_snr"]) < hi]
+        sel = [p for p in pts if lo <= ratio(p) < hi]
         if sel:
             mean = lambda key: np.mean([float(p[key]) for p in sel])
             span = f"{lo:g}-{hi:g}x" if np.isfinite(hi) else f"at least {lo:g}x"
             rooms = len({p["room"] for p in sel})
-            xs = np.log2([float(p["other_snr"]) / float(p["base_snr"]) for p in sel])
+            xs = np.log2([ratio(p) for p in sel])
             within = " / ".join(slope(xs, np.array([float(p[k]) for p in sel]))
                                 for k in ("six_way_test_diff", "six_way_sim_diff"))
             lines.append(f"Other spot of {span} ours' SNR ({len(sel)} points, {rooms} rooms): six-way minus ours "
