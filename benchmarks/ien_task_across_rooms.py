@@ -29,7 +29,7 @@ other FloorNet runs too (other seeds), which the IEN was not trained through.
 
     python benchmarks/ien_task_across_rooms.py --train out/unseen/train --test out/unseen/test \\
         --floor-net out/backprojection-net/t2-s0 [--rooms 200] [--objectives snr,task,task+snr,task-ce] \\
-        [--seeds 2] [--steps 2000] [--draws 4] [--bound] [--shard I/N] [--out CSV]
+        [--seeds 2] [--steps 2000] [--draws 4] [--table-people K] [--bound] [--shard I/N] [--out CSV]
 """
 
 from __future__ import annotations
@@ -118,11 +118,12 @@ def cached_tables(args, net, fargs, dirs: list[Path], cache: Path, only: range |
     return out
 
 
-def loss_vector(table: dict, faces: int) -> torch.Tensor:
-    """(T,) the mean task loss of each candidate (0 where not landed: the IEN gives those p = 0)."""
+def loss_vector(table: dict, faces: int, people: int = 0) -> torch.Tensor:
+    """(T,) the mean task loss of each candidate over the room's first ``people`` (0: all) (0 where
+    not landed: the IEN gives those p = 0)."""
     v = torch.zeros(faces)
-    v[torch.as_tensor(table["faces"])] = torch.as_tensor(table["err"].mean(1) + POSTURE_WEIGHT * table["ce"].mean(1),
-                                                         dtype=torch.float32)
+    err, ce = table["err"][:, : people or None], table["ce"][:, : people or None]
+    v[torch.as_tensor(table["faces"])] = torch.as_tensor(err.mean(1) + POSTURE_WEIGHT * ce.mean(1), dtype=torch.float32)
     return v
 
 
@@ -260,6 +261,8 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=2000)
     ap.add_argument("--score-nets", type=Path, nargs="*", default=[],
                     help="more backprojection_net.py runs to score every spot with (not trained through)")
+    ap.add_argument("--table-people", type=int, default=0,
+                    help="train on the task loss of each training room's first K people only (0: all)")
     ap.add_argument("--draws", type=int, default=4, help="noise draws per person in the task tables")
     ap.add_argument("--bound", action="store_true", help="also the test rooms' hindsight best spot by task loss")
     ap.add_argument("--shard", default="", help="I/N: only build the task tables of rooms I mod N, then stop")
@@ -271,6 +274,8 @@ def main() -> None:
     objectives = [o for o in args.objectives.split(",") if o]
     if bad := [o for o in objectives if o not in OBJECTIVES]:
         raise SystemExit(f"--objectives: unknown objective {bad[0]!r} ({', '.join(OBJECTIVES)})")
+    if args.table_people < 0:
+        raise SystemExit(f"--table-people: expected 0 (all) or a positive count, got {args.table_people}")
     if args.bound and "oracle" not in args.policies.split(","):
         raise SystemExit("--bound compares with the oracle spot: keep 'oracle' in --policies")
     from nlos_spotlight.data.generate import versions
@@ -291,7 +296,9 @@ def main() -> None:
         return
     tables = cached_tables(args, net, fargs, dirs, cache / "train")
     rooms = [load_scene_tensors(d, FEATURES, "transport") for d in dirs]
-    losses = [loss_vector(t, len(s.faces)) for t, s in zip(tables, rooms)]
+    losses = [loss_vector(t, len(s.faces)) for t, s in zip(tables, rooms)]  # what every row reports
+    trained_on = [loss_vector(t, len(s.faces), args.table_people) for t, s in zip(tables, rooms)] \
+        if args.table_people else losses
     test = [load_scene_tensors(d, FEATURES, "transport") for d in test_dirs]
     rho, gap = snr_task_agreement(rooms, losses)
     console.print(f"{len(rooms)} training rooms: SNR vs task loss Spearman {rho:.3f}; task loss at the best-SNR "
@@ -304,7 +311,7 @@ def main() -> None:
             for p in lights}
     for obj in objectives:
         for seed in range(args.seeds):
-            ien, sec = train_ien(rooms, losses, obj, args.snr_weight, args.steps, seed, cache, args.task_tau)
+            ien, sec = train_ien(rooms, trained_on, obj, args.snr_weight, args.steps, seed, cache, args.task_tau)
             name = f"ien-{obj}-s{seed}"
             lights[name] = room_lights(test, "ien", 0, ien)
             meta[name] = {"objective": obj, "seed": seed, "seconds": round(sec),
