@@ -188,7 +188,8 @@ def score_test(net, fargs: dict, dirs: list[Path], faces: dict[str, list[int]]) 
                 pos, logits, _ = predict(net, r, k, torch.arange(len(r["target"])), g)
             acc[p][0].append((pos - r["target"]).norm(dim=1))
             acc[p][1].append(logits.argmax(1) == r["posture"])
-    return {p: (float(torch.cat(e).mean()) * 100, float(torch.cat(c).float().mean()) * 100) for p, (e, c) in acc.items()}
+    return {p: (float(torch.cat(e).mean()) * 100, float(torch.cat(c).float().mean()) * 100)
+            for p, (e, c) in acc.items()}
 
 
 def bound_rows(tables: list[dict], oracle_faces: list[int], static: list[np.ndarray], choose: int = 0) -> dict:
