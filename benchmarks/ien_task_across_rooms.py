@@ -168,11 +168,9 @@ def train_ien(rooms, losses, objective: str, snr_weight: float, steps: int, seed
     return tr.ien.eval(), time.perf_counter() - t0
 
 
-def chosen_task_loss(rooms, losses, ien) -> float:
-    """Mean over ``rooms`` of the tabled task loss at the IEN's spot."""
-    from nlos_spotlight.evaluate.unseen import room_lights
-
-    return float(np.mean([float(v[ill.face]) for v, ill in zip(losses, room_lights(rooms, "ien", 0, ien))]))
+def task_loss_at(losses: list[torch.Tensor], lights) -> float:
+    """Mean over rooms of the tabled task loss at each room's spot (``lights``: one Illumination a room)."""
+    return round(float(np.mean([float(v[ill.face]) for v, ill in zip(losses, lights)])), 4)
 
 
 def score_test(net, fargs: dict, dirs: list[Path], faces: dict[str, list[int]]) -> dict[str, tuple[float, float]]:
@@ -220,20 +218,15 @@ def snr_task_agreement(rooms, losses) -> tuple[float, float]:
     mean task loss at the best-SNR candidate minus the lowest tabled one."""
     from scipy.stats import spearmanr
 
+    from nlos_spotlight.lighting.snr import candidate_snr
+
     rho, gap = [], []
     for s, v in zip(rooms, losses):
-        snr = s_snr(s)
+        snr = np.asarray(candidate_snr(s.scene_dir))  # the default capture
         ok = s.landed.numpy()
         rho.append(spearmanr(snr[ok], v.numpy()[ok]).statistic)
         gap.append(float(v[int(np.argmax(np.where(ok, snr, -np.inf)))]) - float(v.numpy()[ok].min()))
     return float(np.nanmean(rho)), float(np.mean(gap))
-
-
-def s_snr(s) -> np.ndarray:
-    """(T,) a room's candidate SNR (``lighting.snr``, the default capture)."""
-    from nlos_spotlight.lighting.snr import candidate_snr
-
-    return np.asarray(candidate_snr(s.scene_dir, 0, None))
 
 
 def shard(spec: str, n: int) -> range:
@@ -306,17 +299,16 @@ def main() -> None:
                   f"spot minus the lowest {gap:.4f} ({time.perf_counter() - t0:.0f} s)")
     fseed = int(fargs["seed"])
     lights = {p: room_lights(test, p, fseed) for p in args.policies.split(",") if p}
-    meta = {p: {"objective": p, "seed": "", "seconds": "",
-                "train_task_loss": round(float(np.mean([float(v[ill.face]) for v, ill in
-                                                        zip(losses, room_lights(rooms, p, fseed))])), 4)}
-            for p in lights}
+    train_lights = {p: room_lights(rooms, p, fseed) for p in lights}
+    meta = {p: {"objective": p, "seed": "", "seconds": "", "train_task_loss": task_loss_at(losses, ls)}
+            for p, ls in train_lights.items()}
     for obj in objectives:
         for seed in range(args.seeds):
             ien, sec = train_ien(rooms, trained_on, obj, args.snr_weight, args.steps, seed, cache, args.task_tau)
             name = f"ien-{obj}-s{seed}"
             lights[name] = room_lights(test, "ien", 0, ien)
             meta[name] = {"objective": obj, "seed": seed, "seconds": round(sec),
-                          "train_task_loss": round(chosen_task_loss(rooms, losses, ien), 4)}
+                          "train_task_loss": task_loss_at(losses, room_lights(rooms, "ien", 0, ien))}
             console.print(f"{name}: {sec:.0f} s, training rooms' task loss at its spot {meta[name]['train_task_loss']}")
     faces = {p: [ill.face for ill in ls] for p, ls in lights.items()}
     rows = []
@@ -337,7 +329,7 @@ def main() -> None:
         oracle = [ill.face for ill in lights["oracle"]]
         static = lambda rs: [np.nonzero(s.trajectory[:, 0].numpy() < 0)[0] for s in rs]
         record["bound"] = [bound_rows(tt, oracle, static(test), k) for k in (2, 4, 8, 0)]
-        record["bound_train_rooms"] = bound_rows(tables, [int(np.argmax(s_snr(s))) for s in rooms], static(rooms))
+        record["bound_train_rooms"] = bound_rows(tables, [ill.face for ill in train_lights["oracle"]], static(rooms))
         for b in record["bound"] + [record["bound_train_rooms"]]:
             console.print(f"hindsight best spot by task loss, chosen on {b['chosen_on']} people: "
                           f"{b['task_best_error_cm']:.1f} cm against the oracle's {b['oracle_error_cm']:.1f} cm")
