@@ -202,7 +202,7 @@ def cmd_fit(args: argparse.Namespace) -> None:
 
     if args.preset not in PRESETS:
         raise NlosError(f"--preset: expected one of {', '.join(PRESETS)}, got {args.preset!r}")
-    changes = {k: getattr(args, k) for k in ("people", "policy", "seed", "burst", "workers")
+    changes = {k: getattr(args, k) for k in ("people", "policy", "seed", "burst", "workers", "capture_preset")
                if getattr(args, k) is not None}
     if "burst" in changes:
         changes["burst_frames"] = changes.pop("burst")
@@ -251,11 +251,23 @@ def cmd_predict(args: argparse.Namespace) -> None:
                   backend=args.backend)
     if room is not None:
         res.room_xy = room.room_xy(res.xy)
+        if getattr(models.net, "nuisance", None) is not None and background is not None:
+            from .apps.drift import estimate_drift, tolerance
+            from .render.variation import load_layers
+
+            layers = load_layers(room.path / "layers.npz")
+            tol = tolerance(models.config.variation, args.burst or 1, layers.f_px, layers.depth_m)
+            res.drift = estimate_drift(models.net, frames.images, background, None, tol)
     aspects = {round(w / h, 2) for h, w in frames.native_shapes}
     if aspects - {round(models.image_shape[1] / models.image_shape[0], 2)}:
         console.print(f"note: inputs of size {frames.native_shapes} (H, W) were stretched to the network's "
                       f"{models.image_shape}; crop them to its aspect ratio for best results")
     print_table(res, console, args.max_rows)
+    if res.drift is not None:
+        flagged = res.drift.flagged
+        for i in range(len(res))[:args.max_rows]:
+            console.print(f"{i}: {res.drift.line(i)}")
+        console.print(f"drift: {int(flagged.sum())} of {len(res)} captures beyond what the room model tolerates")
     if res.smoothed is None and len(res) > 1 and not args.no_smooth:
         console.print(f"{len(res)} frames: too few to smooth (need at least 5)")
     for flag, write in (("csv", write_csv), ("json", write_json)):
@@ -360,6 +372,8 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--checkpoint", help="trained run whose IEN picks the spot (--policy ien)")
     f.add_argument("--burst", type=int, help="frames averaged per capture (default 16)")
     f.add_argument("--workers", type=int, help="processes rendering people (default 2)")
+    f.add_argument("--capture-preset", help="capture variation to train for: tripod (default), rough, or ideal "
+                                            "(photographs that match to the last bit: the recipe before drift)")
     f.add_argument("--preset", default="default", help="default, or tiny (tens of people: a first look, tests)")
     f.add_argument("--seed", type=int, help="master seed (default 0)")
     f.add_argument("--resume", action="store_true", help="continue the fit in --out")

@@ -54,6 +54,9 @@ class Predictions:
     """(H, W) every frame was resampled to."""
     room_xy: np.ndarray | None = None
     """(N, 2) the positions in the room's z-up frame (room models from ``nlos fit``), else None."""
+    drift: object | None = None
+    """``apps.drift.Drift``: what changed since the empty-room burst, per frame (room models trained
+    under a capture variation, with --background), else None."""
 
     def __len__(self) -> int:
         return len(self.sources)
@@ -73,6 +76,8 @@ class Predictions:
                    "probabilities": {p: float(v) for p, v in zip(POSTURES, self.probabilities[i])}}
             if self.smoothed is not None:
                 row["x_smooth_m"], row["y_smooth_m"] = float(self.smoothed[i, 0]), float(self.smoothed[i, 1])
+            if self.drift is not None:
+                row["drift"] = self.drift.rows()[i]
             frames.append(row)
         smoothing = None if self.smoothed is None else {
             "method": "Savitzky-Golay (scipy.signal.savgol_filter, mode='interp')",
@@ -159,8 +164,10 @@ def _replace(path: Path, write) -> None:
 
 def write_csv(p: Predictions, path: Path) -> None:
     """One row per frame: frame, source, time_s, x_m, y_m, posture, p_<posture> x6, x/y_smooth_m."""
+    from ..models.nuisance import DIRECTIONS
+
     header = ["frame", "source", "time_s", "x_m", "y_m", "posture", *[f"p_{n}" for n in POSTURES],
-              "x_smooth_m", "y_smooth_m", "x_room_m", "y_room_m"]
+              "x_smooth_m", "y_smooth_m", "x_room_m", "y_room_m", *[f"drift_{d}" for d in DIRECTIONS], "drift_flagged"]
 
     def write(tmp: Path) -> None:
         with tmp.open("w", newline="") as f:
@@ -170,8 +177,10 @@ def write_csv(p: Predictions, path: Path) -> None:
                 t = "" if p.times is None else f"{p.times[i]:.6g}"
                 sm = ["", ""] if p.smoothed is None else [f"{v:.6f}" for v in p.smoothed[i]]
                 room = ["", ""] if p.room_xy is None else [f"{v:.6f}" for v in p.room_xy[i]]
+                drift = [""] * (len(DIRECTIONS) + 1) if p.drift is None else \
+                    [f"{v:.6g}" for v in p.drift.coefficients[i]] + [int(p.drift.flagged[i])]
                 w.writerow([i, src, t, f"{p.xy[i, 0]:.6f}", f"{p.xy[i, 1]:.6f}", p.postures[i],
-                            *[f"{v:.6f}" for v in p.probabilities[i]], *sm, *room])
+                            *[f"{v:.6f}" for v in p.probabilities[i]], *sm, *room, *drift])
 
     _replace(path, write)
 

@@ -79,9 +79,12 @@ class SceneTensors:
     albedo: torch.Tensor | None = None
     """(N, 3) the body's albedo each sample was rendered with (the person's light is linear in it:
     ``train.imaging.form_images``' albedo augmentation); None for scenes built in memory."""
+    layers: object | None = None
+    """The room's static light under its fixed spot at sub-pixel resolution
+    (``render.variation.StaticLayers``): what the capture variation moves; None: ideal captures only."""
 
     def to(self, device) -> "SceneTensors":
-        move = lambda v: v.to(device) if isinstance(v, torch.Tensor) else v
+        move = lambda v: v.to(device) if isinstance(v, torch.Tensor) or hasattr(v, "bin") else v
         return SceneTensors(**{k: move(getattr(self, k)) for k in self.__dataclass_fields__})
 
     @property

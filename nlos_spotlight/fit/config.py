@@ -50,6 +50,10 @@ class FitConfig:
     """At least this many optimizer steps of 64 images."""
     workers: int = 2
     """Processes rendering people (one torch thread each)."""
+    capture_preset: str = "tripod"
+    """Capture variation the room model is trained to survive (``render.variation``: ideal, tripod,
+    rough); any but 'ideal' also projects the variation's directions out of every photograph
+    (``models.nuisance``). 'ideal' is the recipe before drift was modelled."""
 
     def __post_init__(self) -> None:
         checks = {"people": 1, "heldout": 1, "transport_people": 1, "burst_frames": 1, "resolution": 8,
@@ -65,6 +69,12 @@ class FitConfig:
             raise NlosError(f"fit: epochs must be positive, got {self.epochs!r}")
         if self.seed < 0:
             raise NlosError(f"--seed: expected a non-negative integer, got {self.seed}")
+        from ..render.variation import preset
+
+        try:
+            preset(self.capture_preset)
+        except NlosError as exc:
+            raise NlosError(f"--capture-preset: {str(exc).split(': ', 1)[1]}") from None
         if self.policy not in POLICIES:
             raise NlosError(f"--policy: expected one of {', '.join(POLICIES)}, got {self.policy!r}")
         if (self.policy == "ien") != bool(self.checkpoint):

@@ -7,8 +7,11 @@ Steps, each resumable (a rerun with ``--resume`` skips what is finished and cont
    ``transport_people`` under every candidate spot, then the rest as image samples under the
    stored spots, rendered by ``workers`` processes (``SceneBuilder.build(part=...)``).
 3. **spot**: the policy's face among the candidates, and how to aim the projector at it.
+   The room's static light under that spot at sub-pixel resolution is rendered once
+   (``ROOM_MODEL/layers.npz``, ``render.layers``): what camera motion and drift move.
 4. **train**: the seen-rooms recipe (``evaluate.seen``) with the fit's capture (a burst of
-   ``burst_frames``), best weights kept as ``ROOM_MODEL/final.pt``.
+   ``burst_frames``) and its capture variation (``capture_preset``), best weights kept as
+   ``ROOM_MODEL/final.pt``.
 5. **report**: held-out people scored (``report.json``, ``report.html``).
 """
 
@@ -170,14 +173,15 @@ def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = F
     clock.lap("generate_s")
     console.rule("3/5 spot")
     from .spot import policy_face, spot_record
-    from .train import room_split, train_room
+    from .train import room_layers, room_split, train_room
 
     split = room_split(out, cfg, ["normals"])
     spot = spot_record(out, extra[0] if extra else policy_face(cfg, split))
     console.print(spot["explain"])
+    layers = room_layers(out, spot["aim"])  # the static light the capture variation moves
     clock.lap("spot_s")
     console.rule("4/5 train")
-    result = train_room(cfg, out, progress, split)
+    result = train_room(cfg, out, progress, split, layers)
     if result.spots[0] != spot["face"]:
         raise NlosError(f"the trained network used spot {result.spots[0]}, not the chosen {spot['face']}")
     clock.lap("train_s")

@@ -22,9 +22,35 @@ def capture_overrides(out: Path | None, cfg: FitConfig) -> dict:
 
 
 def fit_train_config(cfg: FitConfig, out: Path | None = None) -> TrainConfig:
-    """``seen_config`` for one room with the fit's capture (``capture_overrides``) and spot policy."""
+    """``seen_config`` for one room with the fit's capture (``capture_overrides``), its capture
+    variation (projected out of the photographs unless 'ideal') and spot policy."""
     tc = seen_config(1, seed=cfg.seed, noise=True, policy=cfg.policy)
-    return dataclasses.replace(tc, name="room-model", sensor=capture_overrides(out, cfg))
+    drift = cfg.capture_preset != "ideal"
+    return dataclasses.replace(tc, name="room-model", sensor=capture_overrides(out, cfg), variation=cfg.capture_preset,
+                               net=dataclasses.replace(tc.net, project_nuisance=drift))
+
+
+def room_layers(out: Path, aim):
+    """The room's static layers under the spot aimed at ``aim`` (``render.layers``), rendered once
+    and kept as ``ROOM_MODEL/layers.npz``."""
+    from ..render.layers import static_layers
+    from ..render.variation import load_layers, save_layers
+    from ..scene.io import load_scene
+
+    path = Path(out) / "layers.npz"
+    if path.exists():
+        return load_layers(path)
+    import numpy as np
+
+    layers = static_layers(load_scene(Path(out) / "room"), np.asarray(aim, np.float64))
+    save_layers(path, layers)
+    return layers
+
+
+def with_layers(room: RoomSplit, layers) -> RoomSplit:
+    """``room`` with the static layers on its pool, validation and test people."""
+    put = lambda s: dataclasses.replace(s, layers=layers)
+    return RoomSplit(put(room.pool), put(room.val), put(room.test))
 
 
 def room_split(out: Path, cfg: FitConfig, features: list[str]) -> RoomSplit:
@@ -37,9 +63,11 @@ def room_split(out: Path, cfg: FitConfig, features: list[str]) -> RoomSplit:
     return split_room(s, period=period, max_eval=cfg.heldout)
 
 
-def train_room(cfg: FitConfig, out: Path, progress: bool, split: RoomSplit | None = None) -> SeenResult:
+def train_room(cfg: FitConfig, out: Path, progress: bool, split: RoomSplit | None = None,
+               layers=None) -> SeenResult:
     """Step 4 of ``nlos fit``: train (resumable, ``ROOM_MODEL/train/``), keep ``final.pt``, score.
-    ``split``: the room already loaded with the default IEN features (else it is read here)."""
+    ``split``: the room already loaded with the default IEN features (else it is read here);
+    ``layers``: the room's static layers (the capture variation moves them)."""
     ien_state, features = None, ["normals"]
     if cfg.policy == "ien":
         from ..train.checkpoint import load_trained
@@ -47,6 +75,8 @@ def train_room(cfg: FitConfig, out: Path, progress: bool, split: RoomSplit | Non
         models = load_trained(cfg.checkpoint)
         ien_state, features, ien_cfg = models.ien.state_dict(), list(models.config.ien_features), models.config.ien
     room = split if split is not None and cfg.policy != "ien" else room_split(out, cfg, features)
+    if layers is not None:
+        room = with_layers(room, layers)
     tc, spots = fit_train_config(cfg, out), None
     if cfg.policy == "ien":
         import json

@@ -139,6 +139,9 @@ def compile_network(net: nn.Module, shape: tuple[int, int], backend: str = "torc
             return pos.cpu().numpy(), logits.cpu().numpy()
 
         return run
+    if getattr(net, "nuisance", None) is not None:
+        raise NlosError(f"--backend {backend}: this room model projects the capture drift out (linear solves the "
+                        "ONNX export does not carry yet); use --backend torch or eager")
     try:
         import onnxruntime as ort
     except ImportError:

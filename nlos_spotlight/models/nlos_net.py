@@ -55,6 +55,9 @@ class NLOSNetConfig:
     """Append the camera's clip flag (1 where the pixel saturated) as an input channel."""
     geometry: bool = False
     """Append the room's per-pixel geometry and the spot's lit fraction (``data.geometry``, 10 channels)."""
+    project_nuisance: bool = False
+    """Remove the capture variation's directions from the difference before reading it
+    (``models.nuisance``; needs ``background_subtract`` and the room's prior)."""
     aux_head: bool = False
     """A third head for the nuisances (cos, sin of the facing; height, m): auxiliary targets (``aux_weight``)."""
 

@@ -13,6 +13,7 @@ from torch import nn
 
 from ..errors import NlosError
 from .nlos_net import NLOSNet, NLOSNetConfig
+from .nuisance import NuisanceProjection
 
 NETWORKS: dict[str, Callable[[NLOSNetConfig], nn.Module]] = {"resnet18": NLOSNet}
 """Architecture name -> constructor taking an :class:`NLOSNetConfig` (baselines register below)."""
@@ -41,12 +42,15 @@ class PositionScaled(nn.Module):
         geometry (B, 10, H, W) (networks with ``reads_geometry``) -> position (B, 2) m, logits (B, 6).
     """
 
-    def __init__(self, net: nn.Module, subtract: bool = False, normalize: str = "image"):
+    def __init__(self, net: nn.Module, subtract: bool = False, normalize: str = "image", nuisance: bool = False):
         super().__init__()
         if normalize not in ("image", "background") or (normalize == "background" and not subtract):
             raise NlosError(f"network: normalize must be 'image' or 'background' (with background_subtract), "
                             f"got {normalize!r}")
+        if nuisance and not subtract:
+            raise NlosError("network: project_nuisance needs background_subtract")
         self.net, self.subtract, self.by_background = net, subtract, normalize == "background"
+        self.nuisance = NuisanceProjection() if nuisance else None
         self.net.per_image_norm = not self.by_background
         self.register_buffer("position_mean", torch.zeros(2))
         self.register_buffer("position_std", torch.ones(2))
@@ -62,6 +66,8 @@ class PositionScaled(nn.Module):
             if background is None:
                 raise ValueError("this network reads photograph - empty-room photograph: pass the background")
             images = images - background
+            if self.nuisance is not None:  # what the capture variation changed, estimated and removed
+                images = self.nuisance(images, background, clipped)[0]
             if clipped is not None:  # a clipped pixel's difference is the clip, not the person
                 images = images.masked_fill(clipped.unsqueeze(-1), 0.0)
             if self.by_background:  # 1e3: the person's light is ~1e-3 of the room's
@@ -84,4 +90,5 @@ def build_network(arch: str, cfg: NLOSNetConfig | None = None) -> PositionScaled
     cfg = cfg or NLOSNetConfig()
     if cfg.geometry and arch != "resnet18":
         raise NlosError(f"network: only resnet18 reads the room's geometry (net.geometry), not '{arch}'")
-    return PositionScaled(NETWORKS[arch](cfg), subtract=cfg.background_subtract, normalize=cfg.normalize)
+    return PositionScaled(NETWORKS[arch](cfg), subtract=cfg.background_subtract, normalize=cfg.normalize,
+                          nuisance=cfg.project_nuisance)

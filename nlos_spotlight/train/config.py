@@ -74,6 +74,10 @@ class TrainConfig:
     albedo_augment: bool = False
     """Training only: every drawn person is dressed afresh in a clothing albedo from the dataset's own
     distribution (``world.body.clothing_albedo``), exact because the person's light is linear in it."""
+    variation: str = "ideal"
+    """Capture variation (a ``render.variation`` preset: ideal, tripod, rough) in every training and
+    validation photograph: the person capture and its empty-room capture differ as real ones do
+    (camera motion, projector, spot and ambient drift; needs the room's static layers)."""
     ien_features: list[str] = field(default_factory=lambda: ["normals"])
     """Extra IEN vertex features besides coordinates: 'normals'."""
     ien: IENConfig = field(default_factory=IENConfig)
@@ -104,6 +108,10 @@ class TrainConfig:
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v < float("inf"):
                 raise NlosError(f"config: {k} must be a non-negative number, got {v!r}")
+
+        from ..render.variation import preset
+
+        preset(self.variation)  # a one-line error for an unknown name
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)

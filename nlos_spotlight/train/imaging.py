@@ -28,20 +28,49 @@ def form_images(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor | None,
     weight elsewhere, or with a gradient (which needs every candidate's image), raises NlosError.
     ``albedo`` (B, 3): the people dressed in these albedos instead (:func:`albedo_factors`).
     """
+    lit, amb, static = form_parts(s, idx, y, mode, albedo)
+    return static + lit + amb, static
+
+
+def form_parts(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor | None, mode: str = "spot",
+               albedo: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """:func:`form_images` in parts: the person's light from the projector (B, H, W, 3) (0 when
+    'ambient'), its light under the hidden region's own light (B, H, W, 3), the person-free image
+    (H, W, 3): the capture variation scales the first with the projector, the second with the room."""
     if mode == "spot":
         _check_stored(s, idx, y)
     lit, amb = albedo_factors(s, idx, albedo) if albedo is not None else (1.0, 1.0)
     person_ambient = amb * s.nlos_ambient[idx]
     if mode == "ambient":
-        return s.ambient + person_ambient, s.ambient
+        return torch.zeros_like(person_ambient), person_ambient, s.ambient
     if mode == "flash":
         if s.flash_direct is None or s.flash_nlos is None:
             raise NlosError(f"{s.scene_dir or 'scene'}: the dataset stores no flash images (regenerate it)")
-        static = s.flash_direct + s.ambient
-        return static + lit * s.flash_nlos[idx] + person_ambient, static
+        return lit * s.flash_nlos[idx], person_ambient, s.flash_direct + s.ambient
     static = torch.einsum("t,thwc->hwc", y, s.direct) + s.ambient
     nlos = torch.einsum("t,btr,brhwc->bhwc", y, s.u[idx], s.v[idx])
-    return static + lit * nlos + person_ambient, static
+    return lit * nlos, person_ambient, static
+
+
+def drifted_images(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor, albedo: torch.Tensor | None,
+                   variation, burst_frames: int, generator: torch.Generator | None
+                   ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Noise-free person captures (B, H, W, 3), their empty-room captures (B, H, W, 3) and the
+    nominal person-free image (H, W, 3) under ``variation`` (``render.variation``): each capture
+    draws its own camera motion, gains and spot aim; the room's light moves with the room's static
+    layers (``s.layers``), the person's light takes the projector's and the room's gains."""
+    from ..render.variation import draw_captures
+
+    if s.layers is None:
+        raise NlosError(f"{s.scene_dir or 'scene'}: capture variation needs the room's static layers "
+                        "(a room model's layers.npz)")
+    lit, amb, static = form_parts(s, idx, y, "spot", albedo)
+    L, n = s.layers, len(idx)
+    draw = lambda: draw_captures(variation, n, burst_frames, L.f_px, L.depth_m, generator, static.device, static.dtype)
+    person, empty = draw(), draw()
+    b4 = lambda t: t[:, None, None, None]
+    images = static + L.change(person) + b4(person.exposure) * (b4(person.projector) * lit + b4(person.ambient) * amb)
+    return images, static + L.change(empty), static
 
 
 def relit_hidden_region(s: SceneTensors, scale: float) -> SceneTensors:
@@ -86,13 +115,22 @@ def _check_stored(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor) -> None:
 
 
 def capture(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor | None, mode: str, sensor: SensorConfig,
-            generator: torch.Generator | None, noise: bool, net_cfg, albedo: torch.Tensor | None = None) -> Photographs:
+            generator: torch.Generator | None, noise: bool, net_cfg, albedo: torch.Tensor | None = None,
+            variation=None) -> Photographs:
     """What the network ``net_cfg`` (``NLOSNetConfig``) reads for samples ``idx`` of room ``s`` under
     the illumination (y, mode): photographs (``form_images`` + ``photographs``) and, for a
     geometry-aware network, the room's geometry channels under that light. ``albedo`` (B, 3):
-    the people dressed in these albedos (``form_images``)."""
-    images, person_free = form_images(s, idx, y, mode, albedo)
-    ph = photographs(images, person_free, sensor, generator, noise, net_cfg.background_subtract)
+    the people dressed in these albedos (``form_images``). ``variation``
+    (``render.variation.CaptureVariation``): person and empty-room captures that differ as real
+    ones do (``drifted_images``; spot light only); None or ideal: they match exactly."""
+    if variation is not None and not variation.is_ideal:
+        if mode != "spot":
+            raise NlosError(f"capture variation: modelled for the spot light, not {mode!r}")
+        images, empty, person_free = drifted_images(s, idx, y, albedo, variation, sensor.burst_frames, generator)
+        ph = photographs(images, empty, sensor, generator, noise, net_cfg.background_subtract, metered=person_free)
+    else:
+        images, person_free = form_images(s, idx, y, mode, albedo)
+        ph = photographs(images, person_free, sensor, generator, noise, net_cfg.background_subtract)
     if getattr(net_cfg, "geometry", False):
         from ..data.geometry import geometry_input
 
@@ -146,17 +184,18 @@ class Photographs:
 
 
 def photographs(images: torch.Tensor, person_free: torch.Tensor, cfg: SensorConfig, generator: torch.Generator | None,
-                noise: bool = True, background: bool = False) -> Photographs:
+                noise: bool = True, background: bool = False, metered: torch.Tensor | None = None) -> Photographs:
     """The network's inputs for noise-free ``images`` (B, H, W, 3).
 
     The exposure is metered on the person-free frame (as the camera does before the person walks
-    in); with ``background`` an empty-room photograph per sample (B, H, W, 3) is captured with the
+    in; ``metered`` (H, W, 3) when ``person_free`` holds one empty-room capture per sample) and then
+    locked; with ``background`` an empty-room photograph per sample (B, H, W, 3) is captured with the
     same settings and its own noise. Without ``noise`` the images pass through unchanged.
     """
     bg = person_free.expand_as(images) if background else None
     if not noise:
         return Photographs(images, bg, None)
-    exposure = auto_exposure(person_free.clamp(min=0), cfg)
+    exposure = auto_exposure((person_free if metered is None else metered).clamp(min=0), cfg)
     images, clipped = add_sensor_noise(images.clamp(min=0), exposure, cfg, generator)
     if background:
         bg, bg_clipped = add_sensor_noise(bg.clamp(min=0), exposure, cfg, generator)

@@ -80,6 +80,20 @@ def straight_through_spot(logits: torch.Tensor, landed: torch.Tensor, tau: float
     return hard + soft - soft.detach()
 
 
+def room_prior_of(scenes: list[SceneTensors]) -> tuple[torch.Tensor, torch.Tensor]:
+    """The nuisance projection's prior (``models.nuisance.room_prior``) from the one room's static
+    layers: a network that projects the capture variation out reads one room (a room model)."""
+    from ..models.nuisance import room_prior
+
+    rooms = {s.scene_dir for s in scenes}
+    if len(rooms) != 1 or scenes[0].layers is None:
+        raise NlosError("net.project_nuisance: needs one room with its static layers (nlos fit), got "
+                        f"{len(rooms)} room(s){'' if scenes[0].layers is not None else ' without layers'}")
+    L = scenes[0].layers
+    p, a = L.nominal()
+    return room_prior(p, a, L.bin(L.aim))
+
+
 class Trainer:
     """State and steps of one run (see module docstring)."""
 
@@ -98,6 +112,11 @@ class Trainer:
         ien_cfg = dataclasses.replace(cfg.ien, in_features=scenes[0].x.shape[1])
         self.ien, self.net = IEN(ien_cfg).to(self.device), build_network(cfg.arch, cfg.net).to(self.device)
         self.net.set_targets(torch.cat([s.target for s in self.scenes]))
+        from ..render.variation import preset
+
+        self.variation = preset(cfg.variation)
+        if cfg.net.project_nuisance:
+            self.net.nuisance.set_prior(*room_prior_of(self.scenes))
         self.image_shape = (h, w)
         self.fixed = fixed_illuminations(cfg, scenes)
         self.spot_snr = spot_snr_targets(cfg, self.scenes) if self.fixed is None else None
@@ -245,7 +264,7 @@ class Trainer:
         for (s, idx), (y, mode, _) in zip(parts, ills):
             albedo = clothing_albedo(len(idx), self.gen, self.device) if train and self.cfg.albedo_augment else None
             photos.append(capture(s, idx, y, mode, self.sensor, self.gen, self.cfg.sensor_noise, self.cfg.net,
-                                  albedo))
+                                  albedo, self.variation))
         cat = lambda name: torch.cat([getattr(p, name) for p in photos]) if getattr(photos[0], name) is not None \
             else None
         aux_loss = torch.zeros((), device=self.device)
@@ -328,7 +347,8 @@ class Trainer:
                     (y, mode, _), = self.illuminations([self.scenes[i]], train=False)
                 for a in range(0, v.num_samples, batch):
                     idx = torch.arange(a, min(a + batch, v.num_samples), device=self.device)
-                    ph = capture(v, idx, y, mode, self.sensor, gen, self.cfg.sensor_noise, self.cfg.net)
+                    ph = capture(v, idx, y, mode, self.sensor, gen, self.cfg.sensor_noise, self.cfg.net,
+                                 variation=self.variation)
                     pos, post = self.net(ph.images, ph.background, ph.clipped, ph.geometry)
                     loss = self.cfg.position_weight * F.mse_loss(pos, v.target[idx], reduction="sum") / 2 \
                         + self.cfg.posture_weight * F.cross_entropy(post, v.posture[idx], reduction="sum")

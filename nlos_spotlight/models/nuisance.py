@@ -1,0 +1,150 @@
+"""Nuisance projection: what changed in the room's light between the empty-room capture and the
+person capture, estimated and removed from their difference before the network reads it.
+
+With ``d = P - B`` (person capture minus empty-room capture, radiance) and ``B`` the empty-room
+capture, the capture variations of ``render/variation.py`` change the room's light along, to first
+order, the columns of
+
+    M = [ B * f,  B * (1 - f),  dB/dx,  dB/dy,  x dB/dy - y dB/dx,  B * a_pan,  B * a_tilt ]
+
+(projector gain with the exposure, ambient gain, camera pan/tilt as an image shift in output pixels,
+roll in radians about the image centre, the spot's pan/tilt in radians). ``f`` (H, W, 3) is the
+fraction of each pixel's light that comes from the projector and ``a`` (2, H, W, 3) the relative
+derivative of that light in the spot's aim, both rendered from the room's scan and kept as buffers
+(:meth:`set_prior`); the image derivatives are central differences of the measured ``B``. The
+weighted least-squares coefficients
+
+    c = argmin_c || W^1/2 (d - M c) ||^2,   W = 1 / (B + 0.01 mean B) (shot noise), 0 where clipped,
+
+are the drift estimates (relative gains, pixels, radians), and the network reads the residual
+``d - M c``. The same projection runs in training and in ``nlos predict``, so the network learns on
+exactly what survives it. It also removes the person's light along those seven directions (its
+overall brightness relative to the room, mostly): the price of a reading that survives drift.
+
+Shapes:
+    diff (B, H, W, 3), background (B, H, W, 3), clipped (B, H, W) bool or None
+    -> residual (B, H, W, 3), coefficients (B, 7) in the order of :data:`DIRECTIONS`.
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+DIRECTIONS = ("projector", "ambient", "shift_x", "shift_y", "roll", "aim_pan", "aim_tilt")
+"""What each coefficient measures: relative gains, output pixels (x right, y down), radians."""
+NOISE_FLOOR = 0.01
+"""The weights' floor, as a fraction of the mean background (dark pixels still have read noise)."""
+
+
+def image_derivatives(b: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """d/dx and d/dy (per output pixel) of (B, H, W, 3) images: central differences inside, one-sided
+    at the borders."""
+    return torch.gradient(b, dim=(2, 1))  # x along the width, y along the rows (down)
+
+
+def nuisance_basis(background: torch.Tensor, fraction: torch.Tensor, aim: torch.Tensor) -> torch.Tensor:
+    """(B, 7, H, W, 3): the columns of ``M`` (module docstring) for empty-room captures (B, H, W, 3)."""
+    b = background
+    gx, gy = image_derivatives(b)
+    h, w = b.shape[1:3]
+    ys = torch.arange(h, device=b.device, dtype=b.dtype) + 0.5 - h / 2
+    xs = torch.arange(w, device=b.device, dtype=b.dtype) + 0.5 - w / 2
+    yy, xx = ys.view(1, h, 1, 1), xs.view(1, 1, w, 1)
+    return torch.stack([b * fraction, b * (1 - fraction), gx, gy, xx * gy - yy * gx, b * aim[0], b * aim[1]], dim=1)
+
+
+def noise_weights(background: torch.Tensor, clipped: torch.Tensor | None) -> torch.Tensor:
+    """(B, H, W, 3) least-squares weights: inverse shot-noise variance, zero where clipped."""
+    level = background.clamp(min=0)
+    floor = NOISE_FLOOR * level.mean(dim=(1, 2, 3), keepdim=True).clamp(min=1e-30)
+    w = 1.0 / (level + floor)
+    return w if clipped is None else w.masked_fill(clipped.unsqueeze(-1), 0.0)
+
+
+def project_out(diff: torch.Tensor, basis: torch.Tensor, weights: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Weighted least squares of ``diff`` (B, H, W, 3) on ``basis`` (B, K, H, W, 3): the residual
+    and the coefficients (B, K). Solved in float64 with the columns scaled to unit weighted norm and a
+    tiny ridge, so a column that is zero (no spot derivative) or collinear costs nothing."""
+    bsz, k = basis.shape[:2]
+    m = basis.reshape(bsz, k, -1).double()
+    d = diff.reshape(bsz, -1).double()
+    w = weights.reshape(bsz, -1).double()
+    norm = (m.pow(2) * w[:, None]).sum(-1).sqrt().clamp(min=1e-300)
+    mn = m / norm[..., None]
+    gram = torch.einsum("bkn,bjn->bkj", mn * w[:, None], mn)
+    gram = gram + 1e-9 * torch.eye(k, dtype=gram.dtype, device=gram.device)
+    rhs = torch.einsum("bkn,bn->bk", mn * w[:, None], d)
+    cn = torch.linalg.solve(gram, rhs)
+    resid = d - torch.einsum("bk,bkn->bn", cn, mn)
+    return resid.reshape(diff.shape).to(diff.dtype), (cn / norm).to(diff.dtype)
+
+
+def project_out_reference(diff, basis, weights):
+    """Slow, obviously correct twin of :func:`project_out`: numpy's lstsq on sqrt(W)-scaled rows,
+    one image at a time (no ridge)."""
+    import numpy as np
+
+    res, coef = [], []
+    for d, m, w in zip(diff.double().numpy(), basis.double().numpy(), weights.double().numpy()):
+        a = (m.reshape(len(m), -1) * np.sqrt(w.reshape(-1))).T
+        c = np.linalg.lstsq(a, d.reshape(-1) * np.sqrt(w.reshape(-1)), rcond=None)[0]
+        coef.append(c)
+        res.append(d - np.tensordot(c, m, axes=1))
+    return torch.as_tensor(np.stack(res)), torch.as_tensor(np.stack(coef))
+
+
+class NuisanceProjection(nn.Module):
+    """The projection of the module docstring, with the room's rendered prior as buffers.
+
+    Buffers: ``fraction`` (H, W, 3) the projector's share of each pixel's light, ``aim`` (2, H, W, 3)
+    the relative derivative of the light in the spot's pan and tilt per radian. They take their
+    shapes from :meth:`set_prior` or from a checkpoint (``_load_from_state_dict``).
+    """
+
+    def __init__(self):
+        super().__init__()
+        self.register_buffer("fraction", torch.zeros(0))
+        self.register_buffer("aim", torch.zeros(0))
+
+    def reset_parameters(self) -> None:  # no parameters: the prior comes from the room
+        pass
+
+    def set_prior(self, fraction: torch.Tensor, aim: torch.Tensor) -> None:
+        if fraction.dim() != 3 or fraction.shape[-1] != 3 or aim.shape != (2, *fraction.shape):
+            raise ValueError(f"nuisance prior: expected (H, W, 3) and (2, H, W, 3), got {tuple(fraction.shape)} "
+                             f"and {tuple(aim.shape)}")
+        self.fraction = fraction.detach().to(self.fraction.device, torch.float32).clone()
+        self.aim = aim.detach().to(self.fraction.device, torch.float32).clone()
+
+    def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
+        for name in ("fraction", "aim"):
+            if prefix + name in state_dict:  # take the stored shape before the copy
+                setattr(self, name, torch.empty_like(state_dict[prefix + name], device=getattr(self, name).device))
+        super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
+
+    @property
+    def ready(self) -> bool:
+        return self.fraction.numel() > 0
+
+    def forward(self, diff: torch.Tensor, background: torch.Tensor,
+                clipped: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+        if not self.ready:
+            raise ValueError("nuisance projection: no room prior (set_prior) in this network")
+        if tuple(self.fraction.shape) != tuple(diff.shape[1:]):
+            raise ValueError(f"nuisance projection: the room prior is {tuple(self.fraction.shape)}, the photographs "
+                             f"{tuple(diff.shape[1:])}")
+        background = background.expand_as(diff)
+        basis = nuisance_basis(background, self.fraction.to(diff.dtype), self.aim.to(diff.dtype))
+        return project_out(diff, basis, noise_weights(background, clipped))
+
+
+def room_prior(projector: torch.Tensor, ambient: torch.Tensor, aim: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """``fraction`` and ``aim`` buffers from a room's rendered nominal projector light (H, W, 3),
+    ambient light (H, W, 3) and the projector light's aim derivatives (2, H, W, 3)."""
+    total = (projector + ambient).clamp(min=1e-30)
+    return (projector / total).clamp(0, 1), aim / total
+
+
+__all__ = ["DIRECTIONS", "NuisanceProjection", "image_derivatives", "noise_weights", "nuisance_basis",
+           "project_out", "project_out_reference", "room_prior"]
