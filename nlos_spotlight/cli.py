@@ -216,7 +216,8 @@ def cmd_fit(args: argparse.Namespace) -> None:
         flags["hidden_region"] = args.hidden_region
     if args.up is not None:
         flags["up"] = args.up
-    fit_room(args.room, output_dir(args.out, "--out"), cfg, flags, resume=args.resume, progress=not args.quiet)
+    fit_room(args.room, output_dir(args.out, "--out"), cfg, flags, resume=args.resume, progress=not args.quiet,
+             people_from=Path(args.people_from) if args.people_from else None)
 
 
 def cmd_predict(args: argparse.Namespace) -> None:
@@ -377,6 +378,8 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--preset", default="default", help="default, or tiny (tens of people: a first look, tests)")
     f.add_argument("--seed", type=int, help="master seed (default 0)")
     f.add_argument("--resume", action="store_true", help="continue the fit in --out")
+    f.add_argument("--people-from", help="a room model of the same room and settings whose rendered people to train "
+                                         "on (another --capture-preset or epochs without rendering again)")
     f.add_argument("--quiet", action="store_true", help="no progress bar (also NLOS_QUIET=1 or CI=true)")
     f.set_defaults(func=cmd_fit)
     q = sub.add_parser("predict", help="position and posture of the hidden person from photos, a stack or a video")

@@ -193,6 +193,23 @@ class SceneBuilder:
             atomic_json(path, rec)
         return rec["spots"]
 
+    def rerender(self, indices: list[int], settings: RenderSettings, aim: np.ndarray,
+                 components: tuple[str, ...] = ("nlos", "nlos_ambient")) -> dict[str, np.ndarray]:
+        """Samples ``indices`` of this room rendered again, lit by one spot aimed at ``aim`` (3,), with
+        other ``settings`` or components (convergence and robustness studies): component name ->
+        (len(indices), H, W, 3) float64. The people are the dataset's (the same seeded draws)."""
+        scene, _ = self._room()
+        specs = self._specs(scene)
+        r = Renderer(scene, settings, aim_points=np.asarray(aim, np.float64)[None])
+        y = r.spot_vector(0)
+        out = {c: [] for c in components}
+        for k in indices:
+            _, person, t = self._person(specs[k], scene.hidden_region.floor_z)
+            res = r.render(y, person, torch.as_tensor(t), components)
+            for c in components:
+                out[c].append(res[c].double().cpu().numpy())
+        return {c: np.stack(v) for c, v in out.items()}
+
     def _person(self, spec: dict, floor_z: float):
         from ..world.body import posed_body
 

@@ -115,7 +115,7 @@ def score(tr: Trainer, rooms: list[RoomSplit], noise: bool, seed: int = 0, batch
 
 
 def score_rooms(net, net_cfg: NLOSNetConfig, sensor, rooms: list[SceneTensors], lights: list[tuple], noise: bool,
-                seed: int = 0, batch: int = 128) -> dict:
+                seed: int = 0, batch: int = 128, variation=None) -> dict:
     """Predictions of ``net`` on every sample of ``rooms``, room i under ``lights[i]`` = (spot vector
     y (T,) or None, mode), with the same sensor noise for every run (seed 20,000 + ``seed``).
 
@@ -123,7 +123,8 @@ def score_rooms(net, net_cfg: NLOSNetConfig, sensor, rooms: list[SceneTensors], 
     position (N, 2) in the region frame, true and predicted posture, the posture probabilities
     (N, 6)) and ``photos`` the first test
     person of each posture as photographed (image and empty-room image (6, H, W, 3), NaN where a
-    posture has no test person; first room)."""
+    posture has no test person; first room). ``variation``: the captures vary as
+    ``render.variation`` draws them (None: ideal)."""
     net.eval()
     device = next(net.parameters()).device
     gen = torch.Generator(device=device).manual_seed(20_000 + seed)  # the same noise for every run
@@ -135,7 +136,7 @@ def score_rooms(net, net_cfg: NLOSNetConfig, sensor, rooms: list[SceneTensors], 
             t = t.to(device)
             for a in range(0, t.num_samples, batch):
                 idx = torch.arange(a, min(a + batch, t.num_samples), device=device)
-                ph = capture(t, idx, y, mode, sensor, gen, noise, net_cfg)
+                ph = capture(t, idx, y, mode, sensor, gen, noise, net_cfg, variation=variation)
                 pos, logits = net(ph.images, ph.background, ph.clipped, ph.geometry)
                 for k, v in (("room", torch.full_like(idx, i)), ("true_xy", t.target[idx]), ("pred_xy", pos),
                              ("true_posture", t.posture[idx]), ("pred_posture", logits.argmax(1)),

@@ -29,6 +29,8 @@ from .config import FitConfig
 FORMAT = "nlos-room-model/1"
 RESUMABLE_CHANGES = ("workers",)
 """Settings a resumed fit may change: the process count (the output is byte-identical)."""
+TRAINING_ONLY = ("capture_preset", "epochs", "min_steps", "workers")
+"""Settings that leave the room and its rendered people as they are (``--people-from`` may differ in them)."""
 
 
 def dataset_config(cfg: FitConfig, room_dir: Path, extra_spots: list[int] | None = None):
@@ -150,8 +152,42 @@ class StepClock:
         return sum(v for k, v in self.seconds.items() if k != "total_s")
 
 
-def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = False, progress: bool = True) -> dict:
-    """Run every step (module docstring); returns ``report.json``'s content."""
+def reuse_people(source: Path, out: Path, record: dict) -> None:
+    """Start ``out`` from the room and rendered people of the room model ``source`` (same room, people
+    and render settings; other :data:`TRAINING_ONLY` settings): its ``room/`` copied, its ``data/``
+    hard-linked where the file system allows (files are only ever replaced, never written in place,
+    so the two fits cannot change each other's). Nothing is written outside ``out``."""
+    import shutil
+
+    source = Path(source)
+    try:
+        old = json.loads((source / "fit.json").read_text())["settings"]
+    except (OSError, json.JSONDecodeError, KeyError, TypeError):
+        raise NlosError(f"--people-from: {source} is not a room model (no readable fit.json)") from None
+    new = record["settings"]
+    diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k) and k not in TRAINING_ONLY)
+    if diff:
+        raise NlosError(f"--people-from: {source} was fitted with other settings (differs in: {', '.join(diff)})")
+    if not (source / "data" / "manifest.json").exists() or not (source / "room.json").exists():
+        raise NlosError(f"--people-from: {source} has not finished rendering its people; resume it first")
+
+    def link(src, dst):
+        try:
+            os.link(src, dst)
+        except OSError:  # another file system: a copy
+            shutil.copy2(src, dst)
+
+    out.mkdir(parents=True, exist_ok=True)
+    shutil.copytree(source / "room", out / "room")
+    shutil.copytree(source / "data", out / "data", copy_function=link)
+    shutil.copy2(source / "room.json", out / "room.json")
+    _atomic_json(out / "fit.json", record)
+
+
+def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = False, progress: bool = True,
+             people_from: Path | None = None) -> dict:
+    """Run every step (module docstring); returns ``report.json``'s content. ``people_from``: a room
+    model of the same room whose rendered people this fit trains on (:func:`reuse_people`)."""
     from ..console import console
     from ..data.generate import versions
 
@@ -163,6 +199,8 @@ def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = F
 
         check_ien_run(cfg.checkpoint)
     check_out(out, record, resume)
+    if people_from is not None and not (out / "fit.json").exists():
+        reuse_people(people_from, out, record)
     clock = StepClock(out)
     console.rule("1/5 room")
     setup = _room(room, out, cfg, flags, record)
@@ -260,4 +298,4 @@ def _ien_spot(cfg: FitConfig, room_dir: Path) -> list[int]:
     return [ien_face(models, scene, los)]
 
 
-__all__ = ["FORMAT", "dataset_config", "fit_room", "render_people"]
+__all__ = ["FORMAT", "dataset_config", "fit_room", "render_people", "reuse_people"]

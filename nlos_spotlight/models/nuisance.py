@@ -5,13 +5,17 @@ With ``d = P - B`` (person capture minus empty-room capture, radiance) and ``B``
 capture, the capture variations of ``render/variation.py`` change the room's light along, to first
 order, the columns of
 
-    M = [ B * f,  B * (1 - f),  dB/dx,  dB/dy,  x dB/dy - y dB/dx,  B * a_pan,  B * a_tilt ]
+    M = [ B f,  B (1 - f),  B r_x,  B r_y,  B r_roll,  B r_pan,  B r_tilt ]
 
-(projector gain with the exposure, ambient gain, camera pan/tilt as an image shift in output pixels,
-roll in radians about the image centre, the spot's pan/tilt in radians). ``f`` (H, W, 3) is the
-fraction of each pixel's light that comes from the projector and ``a`` (2, H, W, 3) the relative
-derivative of that light in the spot's aim, both rendered from the room's scan and kept as buffers
-(:meth:`set_prior`); the image derivatives are central differences of the measured ``B``. The
+(projector gain with the exposure, ambient gain, camera shift x and y in output pixels, camera roll
+in radians about the image centre, the spot's pan and tilt in radians). ``f`` (H, W, 3) is the
+fraction of each pixel's light that comes from the projector and ``r`` (5, H, W, 3) the relative
+derivatives of the pixel's light in each motion, ``(d L / d motion) / L``, all rendered from the
+room's scan at sub-pixel resolution (``render.variation.StaticLayers``) and kept as buffers
+(:meth:`NuisanceProjection.set_prior`); multiplying by the measured ``B`` carries them to the real
+room's brightness (an albedo the scan got wrong scales a pixel's light and its derivatives alike).
+Central differences of the 32 x 32 photograph were tried first: they misjudge the derivative of a
+spot edge a pixel wide by 20-80% (``tests/models/test_nuisance.py`` keeps the textured case). The
 weighted least-squares coefficients
 
     c = argmin_c || W^1/2 (d - M c) ||^2,   W = 1 / (B + 0.01 mean B) (shot noise), 0 where clipped,
@@ -37,21 +41,11 @@ NOISE_FLOOR = 0.01
 """The weights' floor, as a fraction of the mean background (dark pixels still have read noise)."""
 
 
-def image_derivatives(b: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """d/dx and d/dy (per output pixel) of (B, H, W, 3) images: central differences inside, one-sided
-    at the borders."""
-    return torch.gradient(b, dim=(2, 1))  # x along the width, y along the rows (down)
-
-
-def nuisance_basis(background: torch.Tensor, fraction: torch.Tensor, aim: torch.Tensor) -> torch.Tensor:
-    """(B, 7, H, W, 3): the columns of ``M`` (module docstring) for empty-room captures (B, H, W, 3)."""
-    b = background
-    gx, gy = image_derivatives(b)
-    h, w = b.shape[1:3]
-    ys = torch.arange(h, device=b.device, dtype=b.dtype) + 0.5 - h / 2
-    xs = torch.arange(w, device=b.device, dtype=b.dtype) + 0.5 - w / 2
-    yy, xx = ys.view(1, h, 1, 1), xs.view(1, 1, w, 1)
-    return torch.stack([b * fraction, b * (1 - fraction), gx, gy, xx * gy - yy * gx, b * aim[0], b * aim[1]], dim=1)
+def nuisance_basis(background: torch.Tensor, fraction: torch.Tensor, relative: torch.Tensor) -> torch.Tensor:
+    """(B, 7, H, W, 3): the columns of ``M`` (module docstring) for empty-room captures (B, H, W, 3),
+    the room's ``fraction`` (H, W, 3) and ``relative`` derivatives (5, H, W, 3)."""
+    b = background.unsqueeze(1)
+    return torch.cat([b * fraction, b * (1 - fraction), b * relative], dim=1)
 
 
 def noise_weights(background: torch.Tensor, clipped: torch.Tensor | None) -> torch.Tensor:
@@ -97,28 +91,29 @@ def project_out_reference(diff, basis, weights):
 class NuisanceProjection(nn.Module):
     """The projection of the module docstring, with the room's rendered prior as buffers.
 
-    Buffers: ``fraction`` (H, W, 3) the projector's share of each pixel's light, ``aim`` (2, H, W, 3)
-    the relative derivative of the light in the spot's pan and tilt per radian. They take their
-    shapes from :meth:`set_prior` or from a checkpoint (``_load_from_state_dict``).
+    Buffers: ``fraction`` (H, W, 3) the projector's share of each pixel's light, ``relative``
+    (5, H, W, 3) the relative derivatives of the light in the camera's shift (x, y, per output
+    pixel), roll and the spot's pan and tilt (per radian). They take their shapes from
+    :meth:`set_prior` or from a checkpoint (``_load_from_state_dict``).
     """
 
     def __init__(self):
         super().__init__()
         self.register_buffer("fraction", torch.zeros(0))
-        self.register_buffer("aim", torch.zeros(0))
+        self.register_buffer("relative", torch.zeros(0))
 
     def reset_parameters(self) -> None:  # no parameters: the prior comes from the room
         pass
 
-    def set_prior(self, fraction: torch.Tensor, aim: torch.Tensor) -> None:
-        if fraction.dim() != 3 or fraction.shape[-1] != 3 or aim.shape != (2, *fraction.shape):
-            raise ValueError(f"nuisance prior: expected (H, W, 3) and (2, H, W, 3), got {tuple(fraction.shape)} "
-                             f"and {tuple(aim.shape)}")
+    def set_prior(self, fraction: torch.Tensor, relative: torch.Tensor) -> None:
+        if fraction.dim() != 3 or fraction.shape[-1] != 3 or relative.shape != (5, *fraction.shape):
+            raise ValueError(f"nuisance prior: expected (H, W, 3) and (5, H, W, 3), got {tuple(fraction.shape)} "
+                             f"and {tuple(relative.shape)}")
         self.fraction = fraction.detach().to(self.fraction.device, torch.float32).clone()
-        self.aim = aim.detach().to(self.fraction.device, torch.float32).clone()
+        self.relative = relative.detach().to(self.fraction.device, torch.float32).clone()
 
     def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
-        for name in ("fraction", "aim"):
+        for name in ("fraction", "relative"):
             if prefix + name in state_dict:  # take the stored shape before the copy
                 setattr(self, name, torch.empty_like(state_dict[prefix + name], device=getattr(self, name).device))
         super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
@@ -135,16 +130,18 @@ class NuisanceProjection(nn.Module):
             raise ValueError(f"nuisance projection: the room prior is {tuple(self.fraction.shape)}, the photographs "
                              f"{tuple(diff.shape[1:])}")
         background = background.expand_as(diff)
-        basis = nuisance_basis(background, self.fraction.to(diff.dtype), self.aim.to(diff.dtype))
+        basis = nuisance_basis(background, self.fraction.to(diff.dtype), self.relative.to(diff.dtype))
         return project_out(diff, basis, noise_weights(background, clipped))
 
 
-def room_prior(projector: torch.Tensor, ambient: torch.Tensor, aim: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """``fraction`` and ``aim`` buffers from a room's rendered nominal projector light (H, W, 3),
-    ambient light (H, W, 3) and the projector light's aim derivatives (2, H, W, 3)."""
-    total = (projector + ambient).clamp(min=1e-30)
-    return (projector / total).clamp(0, 1), aim / total
+def room_prior(layers) -> tuple[torch.Tensor, torch.Tensor]:
+    """The ``fraction`` (H, W, 3) and ``relative`` (5, H, W, 3) buffers of a room from its static
+    layers (``render.variation.StaticLayers``): the rendered derivatives over the rendered light."""
+    p, a = layers.nominal()
+    total = (p + a).clamp(min=1e-30)
+    derivs = torch.cat([layers.motion_derivatives(), layers.bin(layers.aim)])
+    return (p / total).clamp(0, 1), derivs / total
 
 
-__all__ = ["DIRECTIONS", "NuisanceProjection", "image_derivatives", "noise_weights", "nuisance_basis",
+__all__ = ["DIRECTIONS", "NuisanceProjection", "noise_weights", "nuisance_basis",
            "project_out", "project_out_reference", "room_prior"]

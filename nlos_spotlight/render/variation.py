@@ -19,7 +19,10 @@ this drops is second order).
 Camera motion acts on the static light at sub-pixel resolution before binning
 (:class:`StaticLayers`, ``factor`` x ``factor`` cells per output pixel, DESIGN: "applied at native
 resolution before binning"): the layers are resampled (bilinear) at the moved pixel positions and
-block-averaged. The spot's aim moves the direct light to first order, through the layers' aim
+block-averaged. Within a cell, bilinear resampling adds to the first-order change a part even in
+the motion (a shift left and right differ by it) that a real lens does not have: the motion's
+first order is the odd part, ``(resample(+m) - resample(-m)) / 2``, exactly linear while no cell
+moves by more than a cell, and that is what :meth:`StaticLayers.change` applies. The spot's aim moves the direct light to first order, through the layers' aim
 derivatives (the beam is degrees wide; the drift is hundredths of a degree). The person's own light
 takes the gains; its shift with the camera (1e-4 of the room's light times a 1e-3 pixel shift) is
 left out.
@@ -276,41 +279,38 @@ class StaticLayers:
     def change(self, d: CaptureDraw) -> torch.Tensor:
         """(B, H, W, 3): captures ``d``'s static light minus the nominal capture's.
 
-        Bilinear resampling is linear in the motion while no cell moves by more than a cell, so
-        within that range the change is the gains' exact part plus the motion's one-sided
-        responses (:meth:`_responses`), dropping only gain x motion products (1e-3 x 1e-3 on a
-        tripod); larger motions are resampled (:meth:`static_image`)."""
+        To first order in the motion (a tripod's is thousandths of a pixel): the gains' exact part
+        plus the motion times the binned derivatives (:meth:`motion_derivatives`), dropping gain x
+        motion products (1e-3 x 1e-3); a motion of more than a cell is resampled
+        (:meth:`static_image`, whose odd part in the motion is the slow reference of this one)."""
         big = (d.shift.abs() > 1.0 / self.factor).any() or (d.roll.abs() > self.roll_step).any()
         p, a = self.nominal()
         if bool(big):
             return self.static_image(d) - (p + a)
-        r = self._responses()
         b4 = lambda t: t[:, None, None, None]
-        aim_b = torch.einsum("bk,khwc->bhwc", d.aim.to(r["aim"].dtype), r["aim"])
-        out = b4(d.exposure) * (b4(d.projector) * (p + aim_b) + b4(d.ambient) * a) - (p + a)
-        for name, amount in (("x", d.shift[:, 0]), ("y", d.shift[:, 1]), ("roll", d.roll)):
-            plus, minus = r[name + "+"], r[name + "-"]
-            out = out + b4(amount.clamp(min=0)) * plus - b4(amount.clamp(max=0)) * minus
-        return out
+        dt = p.dtype
+        aim = torch.einsum("bk,khwc->bhwc", d.aim.to(dt), self._derivs()["aim"])
+        motion = torch.einsum("bk,khwc->bhwc", torch.cat([d.shift, d.roll[:, None]], 1).to(dt), self.motion_derivatives())
+        return b4(d.exposure) * (b4(d.projector) * (p + aim) + b4(d.ambient) * a) - (p + a) + motion
 
-    def _responses(self) -> dict:
-        """Binned change per unit of motion, each way (one cell of shift, 1/64 :attr:`roll_step` of roll),
-        and the binned aim derivatives; computed once."""
+    def motion_derivatives(self) -> torch.Tensor:
+        """(3, H, W, 3): d(binned static light) / d(shift x, shift y in output pixels, roll in rad):
+        the odd part of resampling over one cell (over :attr:`roll_step`), exact in that range."""
+        return self._derivs()["motion"]
+
+    def _derivs(self) -> dict:
         if getattr(self, "_cache", None) is None:
             fine = (self.projector + self.ambient)[None]
-            base = self.bin(fine)[0]
             one = torch.ones(1, dtype=fine.dtype, device=fine.device)
             zero2 = torch.zeros(1, 2, dtype=fine.dtype, device=fine.device)
-            # roll moves a cell along x and y at once: bilinear weights then hold an x*y product, second
-            # order in the roll, so its response is taken over a small fraction of the linear range
-            cell, rs = 1.0 / self.factor, self.roll_step / 64
-            resp = {"aim": self.bin(self.aim)}
-            for name, shift, roll, unit in (("x", (1, 0), 0, cell), ("y", (0, 1), 0, cell), ("roll", (0, 0), 1, rs)):
-                for sign in (1, -1):
-                    s = zero2 + sign * unit * torch.tensor(shift, dtype=fine.dtype, device=fine.device)
-                    moved = self.bin(self._warp(fine, s, sign * unit * roll * one))[0]
-                    resp[name + ("+" if sign > 0 else "-")] = (moved - base) / unit
-            object.__setattr__(self, "_cache", resp)
+            steps = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+            units = (1 / self.factor, 1 / self.factor, self.roll_step)
+            out = []
+            for (sx, sy, sr), u in zip(steps, units):
+                move = lambda sign: self.bin(self._warp(fine, zero2 + sign * u * torch.tensor(
+                    [sx, sy], dtype=fine.dtype, device=fine.device), sign * u * sr * one))[0]
+                out.append((move(1) - move(-1)) / (2 * u))
+            object.__setattr__(self, "_cache", {"motion": torch.stack(out), "aim": self.bin(self.aim)})
         return self._cache
 
     def _warp(self, fine: torch.Tensor, shift: torch.Tensor, roll: torch.Tensor) -> torch.Tensor:

@@ -53,12 +53,13 @@ def form_parts(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor | None, mode:
 
 
 def drifted_images(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor, albedo: torch.Tensor | None,
-                   variation, burst_frames: int, generator: torch.Generator | None
+                   variation, burst_frames: int, generator: torch.Generator | None, draws: tuple | None = None
                    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """Noise-free person captures (B, H, W, 3), their empty-room captures (B, H, W, 3) and the
     nominal person-free image (H, W, 3) under ``variation`` (``render.variation``): each capture
     draws its own camera motion, gains and spot aim; the room's light moves with the room's static
-    layers (``s.layers``), the person's light takes the projector's and the room's gains."""
+    layers (``s.layers``), the person's light takes the projector's and the room's gains.
+    ``draws``: (person, empty) ``CaptureDraw`` to use instead of drawing."""
     from ..render.variation import draw_captures
 
     if s.layers is None:
@@ -67,7 +68,7 @@ def drifted_images(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor, albedo: 
     lit, amb, static = form_parts(s, idx, y, "spot", albedo)
     L, n = s.layers, len(idx)
     draw = lambda: draw_captures(variation, n, burst_frames, L.f_px, L.depth_m, generator, static.device, static.dtype)
-    person, empty = draw(), draw()
+    person, empty = draws if draws is not None else (draw(), draw())
     b4 = lambda t: t[:, None, None, None]
     images = static + L.change(person) + b4(person.exposure) * (b4(person.projector) * lit + b4(person.ambient) * amb)
     return images, static + L.change(empty), static

@@ -89,9 +89,7 @@ def room_prior_of(scenes: list[SceneTensors]) -> tuple[torch.Tensor, torch.Tenso
     if len(rooms) != 1 or scenes[0].layers is None:
         raise NlosError("net.project_nuisance: needs one room with its static layers (nlos fit), got "
                         f"{len(rooms)} room(s){'' if scenes[0].layers is not None else ' without layers'}")
-    L = scenes[0].layers
-    p, a = L.nominal()
-    return room_prior(p, a, L.bin(L.aim))
+    return room_prior(scenes[0].layers)
 
 
 class Trainer:

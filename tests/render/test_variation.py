@@ -31,15 +31,16 @@ def draw(n: int = 1, **kw) -> CaptureDraw:
     return d
 
 
-@pytest.mark.parametrize("dx", [0.05, -0.1, 0.4])
+@pytest.mark.parametrize("dx", [0.01, -0.1, 0.4])
 def test_pure_shift_of_a_ramp(dx):
     """Pixel (r, c) of a capture shifted by dx shows the nominal view at c + dx: a ramp of slope a
-    changes by a * dx away from the clamped border (small shifts: the fast path; 0.4: resampled)."""
+    changes by a * dx away from the clamped border (small shifts: the first-order path; 0.4:
+    resampled)."""
     L = ramp_layers()
     d = draw(shift=[dx, 0.0])
     for change in (L.change(d), L.static_image(d) - sum(L.nominal())):
         inner = change[0, :, 1:-1]
-        assert torch.allclose(inner, torch.full_like(inner, 2.0 * dx), atol=1e-9)
+        assert torch.allclose(inner, torch.full_like(inner, 2.0 * dx), atol=1e-7)
 
 
 def test_pure_roll_of_a_ramp():
@@ -67,22 +68,27 @@ def test_pure_gains():
 
 
 def test_fast_change_matches_resampling():
-    """The one-sided responses equal resampling for motion along one axis; together they differ by
-    bilinear resampling's x * y weight (second order in the shift) and the gains' cross terms."""
+    """The first-order change is the odd part of resampling in the motion, (r(+m) - r(-m)) / 2:
+    exactly for a shift along one axis moving no cell by more than a cell; roll and shifts together
+    add bilinear weights' x * y terms, and drawn gains their cross terms with the motion."""
     g = torch.Generator().manual_seed(1)
     fine = torch.rand(H * F, W * F, 3, generator=g, dtype=torch.float64)
     fine = torch.nn.functional.avg_pool2d(fine.permute(2, 0, 1)[None], 5, 1, 2)[0].permute(1, 2, 0)  # smooth
     L = StaticLayers(fine, 0.1 * fine.expand(2, -1, -1, -1).clone(), 0.3 * fine, F, 30.0, 2.5)
-    d = draw_captures(preset("rough"), 32, 16, L.f_px, L.depth_m, g, dtype=torch.float64)
-    ref = L.static_image(d) - sum(L.nominal())
-    assert float((L.change(d) - ref).norm() / ref.norm()) < 3e-3
-    motion = draw_captures(preset("rough").only("camera-shift"), 32, 16, L.f_px, L.depth_m, g, dtype=torch.float64)
-    for axis in (0, 1):
+    base = sum(L.nominal())
+
+    def odd(d):
+        back = CaptureDraw(-d.shift, -d.roll, -d.aim, 2 - d.projector, 2 - d.ambient, 2 - d.exposure)
+        return (L.static_image(d) - L.static_image(back)) / 2
+
+    motion = draw_captures(preset("rough").only("camera-shift", "camera-roll").scaled(20), 32, 16, L.f_px,
+                           L.depth_m, g, dtype=torch.float64)
+    for axis in range(2):
         one = draw(32, shift=motion.shift * torch.eye(2, dtype=torch.float64)[axis])
-        ref = L.static_image(one) - sum(L.nominal())
-        assert float((L.change(one) - ref).norm() / ref.norm()) < 1e-9
-    ref = L.static_image(motion) - sum(L.nominal())
-    assert float((L.change(motion) - ref).norm() / ref.norm()) < 0.03
+        assert torch.allclose(L.change(one), odd(one), atol=1e-12, rtol=1e-9)
+    assert float((L.change(motion) - odd(motion)).norm() / odd(motion).norm()) < 2e-2
+    d = draw_captures(preset("rough"), 32, 16, L.f_px, L.depth_m, g, dtype=torch.float64)
+    assert float((L.change(d) - odd(d)).norm() / (L.static_image(d) - base).norm()) < 3e-3
 
 
 def test_draw_statistics():

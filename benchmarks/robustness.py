@@ -1,0 +1,287 @@
+"""Room models on photographs a real setup would give: each effect alone and all together.
+
+For every room model (``--model ROOM:READING=DIR``; ``READING`` names its recipe: ``before`` for
+``nlos fit --capture-preset ideal``, the preset's name otherwise) its held-out people are
+photographed under one condition at a time and read by its network, with the same sensor noise
+draws for every condition:
+
+* ``ideal``: the fit's own photographs (magnitude 0);
+* capture effects (``render.variation.EFFECTS``: camera-shift, camera-roll, projector-gain,
+  spot-drift, ambient-gain, exposure), each alone at ``--magnitudes`` times the ``tripod`` preset;
+* ``pixel-integrated``: the person's light rendered again at ``--pixel-samples``^2 sub-samples a
+  pixel (the fit stores it at the pixel's centre); ``shadow``: the fit's light plus the spot light
+  the body blocks (``nlos_shadow``, in every real with-minus-without photograph); ``camera``: both;
+  ``clothing-dark`` / ``clothing-light``: the camera photographs of people dressed in albedo 0.05 /
+  0.9 (exact: the person's light is linear in it, the shadow is not);
+* ``all``: every capture effect at 1x ``tripod`` on the camera photographs.
+
+The people are rendered again once per room (``--cache``, resumable, atomic) and shared by the
+readings. Writes ``--out`` (CSV: room, reading, condition, magnitude, posture_accuracy,
+posture3_accuracy, error_cm, people), ``*-flags.csv`` (how often ``nlos predict``'s drift flag is
+right, :func:`flag_rates`) and a JSON of the run's settings and versions beside it.
+
+    python benchmarks/robustness.py --model copyroom:before=out/fits/copyroom-before \\
+        --model copyroom:tripod=out/fits/copyroom --out docs/results/robustness.csv
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from nlos_spotlight.errors import NlosError
+
+COLUMNS = ("room", "reading", "condition", "magnitude", "posture_accuracy", "posture3_accuracy", "error_cm", "people")
+CAMERA_CONDITIONS = ("pixel-integrated", "shadow", "camera", "clothing-dark", "clothing-light", "all")
+CLOTHING = {"clothing-dark": 0.05, "clothing-light": 0.9}
+
+
+@dataclasses.dataclass
+class Room:
+    """One room model and what its conditions need."""
+
+    name: str
+    reading: str
+    path: Path
+    models: object
+    test: object  # SceneTensors of the held-out people, static layers attached
+    spot: int
+    aim: np.ndarray
+    sensor: object
+    indices: list[int]  # dataset sample index of each held-out person
+
+
+def load_room(name: str, reading: str, path: Path, people: int) -> Room:
+    from nlos_spotlight.fit.config import FitConfig
+    from nlos_spotlight.fit.train import fit_train_config, room_layers, room_split
+    from nlos_spotlight.train.checkpoint import load_trained
+    from nlos_spotlight.train.imaging import capture_sensor
+
+    rep = json.loads((path / "report.json").read_text())
+    settings = json.loads((path / "fit.json").read_text())["settings"]
+    cfg = FitConfig(**{k: v for k, v in settings.items() if k in FitConfig.__dataclass_fields__})
+    if people > cfg.heldout:
+        raise NlosError(f"--people: {path} holds {cfg.heldout} held-out people, not {people}")
+    split = room_split(path, cfg, ["normals"])
+    k = torch.arange(split.test.num_samples)[:people]
+    layers = room_layers(path, rep["spot"]["aim"])
+    test = dataclasses.replace(split.test.subset(k), layers=layers)
+    # the held-out people's dataset indices: image samples follow the full-transport ones
+    from nlos_spotlight.data.tensors import load_split
+    from nlos_spotlight.evaluate.seen import split_masks
+
+    s, = load_split(path / "data", "train", ["normals"], samples="images")
+    period = 10 if s.num_samples >= 10 * cfg.heldout else max(3, s.num_samples // cfg.heldout)
+    test_mask = split_masks(s, period, cfg.heldout)[2]
+    idx = (torch.nonzero(test_mask).flatten()[:people] + cfg.transport_people).tolist()
+    tc = fit_train_config(cfg, path)
+    return Room(name, reading, path, load_trained(path), test, int(rep["spot"]["face"]), np.asarray(rep["spot"]["aim"]),
+                capture_sensor(tuple(test.ambient.shape[:2]), tc.sensor), idx)
+
+
+def camera_people(room: Room, cache: Path, pixel_samples: int) -> dict[str, np.ndarray]:
+    """The held-out people rendered again (cached): the fit's settings (a reproduction check),
+    ``pixel_samples``^2 sub-samples a pixel, and the shadow term."""
+    from nlos_spotlight.data.generate import plan
+    from nlos_spotlight.data.scene_builder import SceneBuilder
+    from nlos_spotlight.data.store import atomic_npz
+    from nlos_spotlight.fit.config import FitConfig
+    from nlos_spotlight.fit.run import dataset_config
+    from nlos_spotlight.render.settings import RenderSettings
+
+    path = cache / room.name / f"people-{len(room.indices)}-p{pixel_samples}.npz"
+    if path.exists():
+        with np.load(path, allow_pickle=False) as z:
+            if list(z["indices"]) == room.indices:
+                return {k: z[k] for k in z.files}
+    settings = json.loads((room.path / "fit.json").read_text())["settings"]
+    cfg = FitConfig(**{k: v for k, v in settings.items() if k in FitConfig.__dataclass_fields__})
+    dcfg = dataclasses.replace(dataset_config(cfg, room.path / "room"), room=str((room.path / "room").resolve()))
+    builder = SceneBuilder(dcfg, plan(dcfg)[0], room.path / "data")
+    base = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
+                          spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples, device="cpu")
+    t0 = time.perf_counter()
+    fit = builder.rerender(room.indices, base, room.aim, ("nlos", "nlos_ambient"))
+    fine = builder.rerender(room.indices, dataclasses.replace(base, transport_pixel_samples=pixel_samples), room.aim,
+                            ("nlos", "nlos_ambient", "nlos_shadow"))
+    out = {"indices": np.asarray(room.indices), "fit_nlos": fit["nlos"], "fit_nlos_ambient": fit["nlos_ambient"],
+           **{f"fine_{k}": v for k, v in fine.items()}, "seconds": np.float64(time.perf_counter() - t0)}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_npz(path, **out)
+    return out
+
+
+def with_person_light(test, spot: int, nlos: np.ndarray, nlos_ambient: np.ndarray):
+    """``test`` whose people's light under ``spot`` is ``nlos`` (N, H, W, 3) (one stored column)."""
+    n, t = test.num_samples, test.u.shape[1]
+    u = torch.zeros(n, t, 1, dtype=test.u.dtype)
+    u[:, spot, 0] = 1
+    v = torch.as_tensor(nlos, dtype=test.v.dtype)[:, None]
+    return dataclasses.replace(test, u=u, v=v, nlos_ambient=torch.as_tensor(nlos_ambient, dtype=test.nlos_ambient.dtype))
+
+
+def score(room: Room, test, variation=None, seed: int = 0) -> dict:
+    from nlos_spotlight.evaluate.seen import score_rooms
+
+    y = torch.zeros(test.u.shape[1])
+    y[room.spot] = 1
+    res = score_rooms(room.models.net, room.models.config.net, room.sensor, [test], [(y, "spot")], True, seed,
+                      variation=variation)
+    return {k: res[k] for k in ("posture_accuracy", "posture3_accuracy", "error_cm")}
+
+
+def conditions(room: Room, people: dict | None, magnitudes: list[float]):
+    """(condition, magnitude, test people, variation) for every row of one room model."""
+    from nlos_spotlight.render.variation import CAPTURE_EFFECTS, preset
+
+    tripod = preset("tripod")
+    yield "ideal", 0.0, room.test, None
+    for effect in CAPTURE_EFFECTS:
+        for m in magnitudes:
+            yield effect, m, room.test, tripod.only(effect).scaled(m)
+    if people is None:
+        return
+    t = room.test
+    albedo = t.albedo.numpy()[:, None, None, :]
+    cam = lambda a: with_person_light(t, room.spot, people["fine_nlos"] * (a / albedo) + people["fine_nlos_shadow"],
+                                      people["fine_nlos_ambient"] * ((1 - a) / (1 - albedo)))
+    yield "pixel-integrated", 1.0, with_person_light(t, room.spot, people["fine_nlos"], people["fine_nlos_ambient"]), None
+    yield "shadow", 1.0, with_person_light(t, room.spot, people["fit_nlos"] + people["fine_nlos_shadow"],
+                                           people["fit_nlos_ambient"]), None
+    yield "camera", 1.0, cam(albedo), None
+    for name, a in CLOTHING.items():
+        yield name, 1.0, cam(np.full_like(albedo, a)), None
+    yield "all", 1.0, cam(albedo), tripod.capture_effects
+
+
+def flag_rates(room: Room, multiples: list[float], per: int, seed: int = 0) -> list[dict]:
+    """How often ``nlos predict``'s drift flag (``apps.drift``) is right: held-out people photographed
+    under every capture effect at each multiple of ``tripod``; a capture is truly beyond tolerance
+    when the drawn difference of its two captures exceeds the flag's threshold along some direction.
+    Per multiple: captures truly beyond and within, the share of each that is flagged."""
+    from nlos_spotlight.apps.drift import Drift, tolerance
+    from nlos_spotlight.render.variation import draw_captures, preset
+    from nlos_spotlight.train.imaging import drifted_images, photographs
+
+    net = room.models.net
+    if getattr(net, "nuisance", None) is None:
+        return []
+    L, t = room.test.layers, room.test
+    burst = room.sensor.burst_frames
+    tol = tolerance(room.models.config.variation, burst, L.f_px, L.depth_m)
+    gen = torch.Generator().manual_seed(30_000 + seed)
+    y = torch.zeros(t.u.shape[1])
+    y[room.spot] = 1
+    rows = []
+    for m in multiples:
+        v = preset("tripod").capture_effects.scaled(m)
+        truth, est = [], []
+        for a in range(0, per, t.num_samples):
+            idx = torch.arange(min(t.num_samples, per - a))
+            d = lambda: draw_captures(v, len(idx), burst, L.f_px, L.depth_m, gen)
+            p, e = d(), d()
+            images, empty, free = drifted_images(t, idx, y, None, v, burst, gen, draws=(p, e))
+            ph = photographs(images, empty, room.sensor, gen, True, True, metered=free)
+            with torch.no_grad():
+                est.append(net.nuisance(ph.images - ph.background, ph.background, ph.clipped)[1].double().numpy())
+            truth.append(torch.stack([p.projector * p.exposure / (e.projector * e.exposure) - 1,
+                                      p.ambient * p.exposure / (e.ambient * e.exposure) - 1,
+                                      p.shift[:, 0] - e.shift[:, 0], p.shift[:, 1] - e.shift[:, 1], p.roll - e.roll,
+                                      p.aim[:, 0] - e.aim[:, 0], p.aim[:, 1] - e.aim[:, 1]], 1).double().numpy())
+        beyond = Drift(np.concatenate(truth), tol).flagged
+        flagged = Drift(np.concatenate(est), tol).flagged
+        rows.append({"room": room.name, "reading": room.reading, "magnitude": m, "captures": len(beyond),
+                     "beyond": int(beyond.sum()), "flagged_beyond": float(flagged[beyond].mean()) if beyond.any() else "",
+                     "flagged_within": float(flagged[~beyond].mean()) if (~beyond).any() else ""})
+        print(f"{room.name:10s} {room.reading:8s} flags at x{m:g} tripod: {int(beyond.sum())} of {len(beyond)} beyond, "
+              f"flagged {rows[-1]['flagged_beyond']} of those, {rows[-1]['flagged_within']} of the rest", flush=True)
+    return rows
+
+
+def reproduction_gap(room: Room, people: dict) -> float:
+    """Relative L2 of the stored people's light against the same settings rendered again (the
+    re-rendered people are the dataset's)."""
+    from nlos_spotlight.train.imaging import form_parts
+
+    y = torch.zeros(room.test.u.shape[1])
+    y[room.spot] = 1
+    lit, _, _ = form_parts(room.test, torch.arange(room.test.num_samples), y, "spot")
+    a = lit.double().numpy()
+    return float(np.linalg.norm(a - people["fit_nlos"]) / np.linalg.norm(people["fit_nlos"]))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--model", action="append", required=True, help="ROOM:READING=ROOM_MODEL_DIR (repeat)")
+    ap.add_argument("--people", type=int, default=100, help="held-out people per room (default 100)")
+    ap.add_argument("--magnitudes", default="0.5,1,2", help="multiples of the tripod preset (default 0.5,1,2)")
+    ap.add_argument("--pixel-samples", type=int, default=4, help="sub-samples a pixel side for pixel-integrated")
+    ap.add_argument("--no-render", action="store_true", help="capture effects only (no people rendered again)")
+    ap.add_argument("--cache", default="out/robustness", help="the people rendered again, per room")
+    ap.add_argument("--seed", type=int, default=0, help="sensor noise and drift draws")
+    ap.add_argument("--flag-multiples", default="1,2,3,4,6", help="tripod multiples of the drift-flag check")
+    ap.add_argument("--flag-captures", type=int, default=400, help="captures per multiple in the drift-flag check")
+    ap.add_argument("--out", required=True, help="CSV to write (a JSON of the run beside it)")
+    args = ap.parse_args(argv)
+    mags = [float(m) for m in args.magnitudes.split(",")]
+    torch.set_num_threads(max(1, os.cpu_count() or 1))
+    rows, notes, flags = [], {}, []
+    for spec in args.model:
+        try:
+            head, path = spec.split("=", 1)
+            name, reading = head.split(":", 1)
+        except ValueError:
+            raise NlosError(f"--model: expected ROOM:READING=DIR, got {spec!r}") from None
+        if not (Path(path) / "report.json").exists():
+            raise NlosError(f"--model: {path} is not a finished room model (no report.json)")
+        room = load_room(name, reading, Path(path), args.people)
+        people = None if args.no_render else camera_people(room, Path(args.cache), args.pixel_samples)
+        if people is not None:
+            notes[f"{name}:{reading}"] = {"reproduction_gap": reproduction_gap(room, people),
+                                          "render_s": float(people["seconds"])}
+        flags += flag_rates(room, [float(m) for m in args.flag_multiples.split(",")], args.flag_captures, args.seed)
+        for cond, mag, test, var in conditions(room, people, mags):
+            r = score(room, test, var, args.seed)
+            rows.append({"room": name, "reading": reading, "condition": cond, "magnitude": mag, **r,
+                         "people": test.num_samples})
+            print(f"{name:10s} {reading:8s} {cond:17s} x{mag:<4g} six-way {r['posture_accuracy']:5.1f}%  "
+                  f"3-way {r['posture3_accuracy']:5.1f}%  error {r['error_cm']:6.1f} cm", flush=True)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.name}.tmp")
+    with tmp.open("w", newline="") as f:
+        w = csv.DictWriter(f, COLUMNS)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: (f"{r[k]:.2f}" if isinstance(r[k], float) else r[k]) for k in COLUMNS})
+    os.replace(tmp, out)
+    if flags:
+        flag_csv = out.with_name(out.stem + "-flags.csv")
+        with flag_csv.open("w", newline="") as f:
+            w = csv.DictWriter(f, list(flags[0]))
+            w.writeheader()
+            w.writerows({k: (f"{v:.3f}" if isinstance(v, float) else v) for k, v in r.items()} for r in flags)
+    from nlos_spotlight.data.generate import versions
+
+    out.with_suffix(".json").write_text(json.dumps({"argv": sys.argv[1:], "people": args.people, "magnitudes": mags,
+                                                    "pixel_samples": args.pixel_samples, "seed": args.seed,
+                                                    "rooms": notes, "versions": versions()}, indent=1))
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main())
+    except NlosError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        sys.exit(2)
