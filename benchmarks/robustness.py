@@ -169,6 +169,7 @@ def flag_rates(room: Room, multiples: list[float], per: int, seed: int = 0) -> l
     when the drawn difference of its two captures exceeds the flag's threshold along some direction.
     Per multiple: captures truly beyond and within, the share of each that is flagged."""
     from nlos_spotlight.apps.drift import Drift, tolerance
+    from nlos_spotlight.models.nuisance import DIRECTIONS
     from nlos_spotlight.render.variation import draw_captures, preset
     from nlos_spotlight.train.imaging import drifted_images, photographs
 
@@ -184,7 +185,7 @@ def flag_rates(room: Room, multiples: list[float], per: int, seed: int = 0) -> l
     rows = []
     for m in multiples:
         v = preset("tripod").capture_effects.scaled(m)
-        truth, est = [], []
+        truth, est, se = [], [], []
         for a in range(0, per, t.num_samples):
             idx = torch.arange(min(t.num_samples, per - a))
             d = lambda: draw_captures(v, len(idx), burst, L.f_px, L.depth_m, gen)
@@ -192,16 +193,20 @@ def flag_rates(room: Room, multiples: list[float], per: int, seed: int = 0) -> l
             images, empty, free = drifted_images(t, idx, y, None, v, burst, gen, draws=(p, e))
             ph = photographs(images, empty, room.sensor, gen, True, True, metered=free)
             with torch.no_grad():
-                est.append(net.nuisance(ph.images - ph.background, ph.background, ph.clipped)[1].double().numpy())
+                _, c, e_ = net.nuisance(ph.images - ph.background, ph.background, ph.clipped)
+            est.append(c.double().numpy())
+            se.append(e_.double().numpy())
             truth.append(torch.stack([p.projector * p.exposure / (e.projector * e.exposure) - 1,
                                       p.ambient * p.exposure / (e.ambient * e.exposure) - 1,
                                       p.shift[:, 0] - e.shift[:, 0], p.shift[:, 1] - e.shift[:, 1], p.roll - e.roll,
                                       p.aim[:, 0] - e.aim[:, 0], p.aim[:, 1] - e.aim[:, 1]], 1).double().numpy())
         beyond = Drift(np.concatenate(truth), tol).flagged
-        flagged = Drift(np.concatenate(est), tol).flagged
+        judged = Drift(np.concatenate(est), tol, np.concatenate(se))
+        flagged = judged.flagged
         rows.append({"room": room.name, "reading": room.reading, "magnitude": m, "captures": len(beyond),
                      "beyond": int(beyond.sum()), "flagged_beyond": float(flagged[beyond].mean()) if beyond.any() else "",
-                     "flagged_within": float(flagged[~beyond].mean()) if (~beyond).any() else ""})
+                     "flagged_within": float(flagged[~beyond].mean()) if (~beyond).any() else "",
+                     **{f"measurable_{d}": float(judged.measurable[:, k].mean()) for k, d in enumerate(DIRECTIONS)}})
         print(f"{room.name:10s} {room.reading:8s} flags at x{m:g} tripod: {int(beyond.sum())} of {len(beyond)} beyond, "
               f"flagged {rows[-1]['flagged_beyond']} of those, {rows[-1]['flagged_within']} of the rest", flush=True)
     return rows

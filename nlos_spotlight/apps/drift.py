@@ -6,7 +6,10 @@ are the drift it estimated: projector and room light (relative, the exposure inc
 shift (output pixels) and roll, the spot's pan and tilt. A capture is flagged when any of them
 exceeds :data:`TOLERANCE_SIGMAS` times what two captures differ by under the preset the model was
 trained on (``render.variation.difference_sigmas``): a 1-in-300 event there per direction, so
-beyond it the network reads a photograph unlike any it was trained on.
+beyond it the network reads a photograph unlike any it was trained on. A direction whose standard
+error in this capture (sensor noise and the person's own light make it uncertain) exceeds
+:data:`MEASURABLE` of its tolerance cannot be judged from the photograph and does not flag; the
+line says so.
 """
 
 from __future__ import annotations
@@ -21,6 +24,8 @@ from ..models.nuisance import DIRECTIONS
 
 TOLERANCE_SIGMAS = 3.0
 """A capture is flagged beyond this many sigmas of the trained preset's capture difference."""
+MEASURABLE = 0.25
+"""A direction flags only where its standard error is below this fraction of its tolerance."""
 UNITS = {"projector": ("%", 100.0), "ambient": ("%", 100.0), "shift_x": ("px", 1.0), "shift_y": ("px", 1.0),
          "roll": ("urad", 1e6), "aim_pan": ("mdeg", 1e3 * 180 / math.pi), "aim_tilt": ("mdeg", 1e3 * 180 / math.pi)}
 """How each direction is printed: unit and factor from its coefficient."""
@@ -34,11 +39,20 @@ class Drift:
     """(N, 7) in ``models.nuisance.DIRECTIONS`` order (relative gains, output pixels, radians)."""
     tolerance: np.ndarray
     """(7,) the flag's thresholds in the same units."""
+    errors: np.ndarray | None = None
+    """(N, 7) the coefficients' standard errors (None: every direction measurable)."""
+
+    @property
+    def measurable(self) -> np.ndarray:
+        """(N, 7) bool: the direction's standard error is below :data:`MEASURABLE` of its tolerance."""
+        if self.errors is None:
+            return np.ones(self.coefficients.shape, bool)
+        return self.errors < MEASURABLE * self.tolerance
 
     @property
     def flagged(self) -> np.ndarray:
-        """(N,) bool: some direction beyond its tolerance."""
-        return (np.abs(self.coefficients) > self.tolerance).any(axis=1)
+        """(N,) bool: some measurable direction beyond its tolerance."""
+        return ((np.abs(self.coefficients) > self.tolerance) & self.measurable).any(axis=1)
 
     def worst(self, i: int) -> str:
         """The direction of capture ``i`` furthest beyond (or nearest to) its tolerance."""
@@ -50,6 +64,9 @@ class Drift:
         f = lambda k: f"{c[k] * UNITS[DIRECTIONS[k]][1]:+.3g} {UNITS[DIRECTIONS[k]][0]}"
         text = (f"projector {f(0)}, room light {f(1)}, camera shift {f(2)} / {f(3)}, roll {f(4)}, "
                 f"spot {f(5)} / {f(6)}")
+        blind = [DIRECTIONS[k] for k in np.flatnonzero(~self.measurable[i])]
+        if blind:
+            text += f" ({', '.join(blind)}: too uncertain in this capture to judge)"
         if not self.flagged[i]:
             return f"drift: {text}: within what the room model tolerates"
         k = DIRECTIONS.index(self.worst(i))
@@ -80,8 +97,10 @@ def estimate_drift(net, images: np.ndarray, background: np.ndarray, clipped: np.
             x = torch.as_tensor(np.ascontiguousarray(images[s:s + batch_size]), dtype=torch.float32, device=bg.device)
             c = None if clipped is None else torch.as_tensor(np.ascontiguousarray(clipped[s:s + batch_size]),
                                                             device=bg.device)
-            out.append(proj(x - bg, bg.expand_as(x), c)[1].double().cpu().numpy())
-    return Drift(np.concatenate(out), np.asarray(tol, np.float64))
+            _, coef, se = proj(x - bg, bg.expand_as(x), c)
+            out.append(torch.stack([coef, se]).double().cpu().numpy())
+    both = np.concatenate(out, axis=1)
+    return Drift(both[0], np.asarray(tol, np.float64), both[1])
 
 
-__all__ = ["Drift", "TOLERANCE_SIGMAS", "estimate_drift", "tolerance"]
+__all__ = ["Drift", "MEASURABLE", "TOLERANCE_SIGMAS", "estimate_drift", "tolerance"]

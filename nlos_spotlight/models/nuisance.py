@@ -27,7 +27,8 @@ overall brightness relative to the room, mostly): the price of a reading that su
 
 Shapes:
     diff (B, H, W, 3), background (B, H, W, 3), clipped (B, H, W) bool or None
-    -> residual (B, H, W, 3), coefficients (B, 7) in the order of :data:`DIRECTIONS`.
+    -> residual (B, H, W, 3), coefficients (B, 7) in the order of :data:`DIRECTIONS`, their
+    standard errors (B, 7).
 """
 
 from __future__ import annotations
@@ -56,10 +57,13 @@ def noise_weights(background: torch.Tensor, clipped: torch.Tensor | None) -> tor
     return w if clipped is None else w.masked_fill(clipped.unsqueeze(-1), 0.0)
 
 
-def project_out(diff: torch.Tensor, basis: torch.Tensor, weights: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """Weighted least squares of ``diff`` (B, H, W, 3) on ``basis`` (B, K, H, W, 3): the residual
-    and the coefficients (B, K). Solved in float64 with the columns scaled to unit weighted norm and a
-    tiny ridge, so a column that is zero (no spot derivative) or collinear costs nothing."""
+def project_out(diff: torch.Tensor, basis: torch.Tensor, weights: torch.Tensor
+                ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Weighted least squares of ``diff`` (B, H, W, 3) on ``basis`` (B, K, H, W, 3): the residual,
+    the coefficients (B, K) and their standard errors (B, K) (from the residual's weighted
+    variance: what noise and the person's light leave uncertain). Solved in float64 with the
+    columns scaled to unit weighted norm and a tiny ridge, so a column that is zero or collinear
+    costs nothing."""
     bsz, k = basis.shape[:2]
     m = basis.reshape(bsz, k, -1).double()
     d = diff.reshape(bsz, -1).double()
@@ -71,7 +75,10 @@ def project_out(diff: torch.Tensor, basis: torch.Tensor, weights: torch.Tensor) 
     rhs = torch.einsum("bkn,bn->bk", mn * w[:, None], d)
     cn = torch.linalg.solve(gram, rhs)
     resid = d - torch.einsum("bk,bkn->bn", cn, mn)
-    return resid.reshape(diff.shape).to(diff.dtype), (cn / norm).to(diff.dtype)
+    dof = ((w > 0).sum(-1) - k).clamp(min=1).double()
+    scale = (w * resid.pow(2)).sum(-1) / dof
+    se = (torch.linalg.inv(gram).diagonal(dim1=-2, dim2=-1) * scale[:, None]).clamp(min=0).sqrt() / norm
+    return resid.reshape(diff.shape).to(diff.dtype), (cn / norm).to(diff.dtype), se.to(diff.dtype)
 
 
 def project_out_reference(diff, basis, weights):
@@ -123,7 +130,7 @@ class NuisanceProjection(nn.Module):
         return self.fraction.numel() > 0
 
     def forward(self, diff: torch.Tensor, background: torch.Tensor,
-                clipped: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+                clipped: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         if not self.ready:
             raise ValueError("nuisance projection: no room prior (set_prior) in this network")
         if tuple(self.fraction.shape) != tuple(diff.shape[1:]):

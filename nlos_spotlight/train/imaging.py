@@ -57,16 +57,18 @@ def drifted_images(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor, albedo: 
                    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """Noise-free person captures (B, H, W, 3), their empty-room captures (B, H, W, 3) and the
     nominal person-free image (H, W, 3) under ``variation`` (``render.variation``): each capture
-    draws its own camera motion, gains and spot aim; the room's light moves with the room's static
-    layers (``s.layers``), the person's light takes the projector's and the room's gains.
+    draws its own camera motion, gains and spot aim; the room's light is the room's static layers
+    (``s.layers``, 64 samples a pixel: more converged than the dataset's own static image) and
+    moves with them, the person's light takes the projector's and the room's gains.
     ``draws``: (person, empty) ``CaptureDraw`` to use instead of drawing."""
     from ..render.variation import draw_captures
 
     if s.layers is None:
         raise NlosError(f"{s.scene_dir or 'scene'}: capture variation needs the room's static layers "
                         "(a room model's layers.npz)")
-    lit, amb, static = form_parts(s, idx, y, "spot", albedo)
+    lit, amb, _ = form_parts(s, idx, y, "spot", albedo)
     L, n = s.layers, len(idx)
+    static = sum(L.nominal()).to(lit.dtype)  # the room's light as the layers render it (the drift's origin)
     draw = lambda: draw_captures(variation, n, burst_frames, L.f_px, L.depth_m, generator, static.device, static.dtype)
     person, empty = draws if draws is not None else (draw(), draw())
     b4 = lambda t: t[:, None, None, None]

@@ -47,7 +47,7 @@ def test_known_answer():
     c = torch.tensor([[3e-3, -2e-3, 1e-3, -5e-4, 2e-5, 1e-4, -1e-4], [0, 1e-2, 0, 0, 0, 0, 0]], dtype=torch.float64)
     person = torch.randn(b.shape, generator=torch.Generator().manual_seed(2), dtype=torch.float64) * 1e-3
     person = project_out(person, m, w)[0]  # its part along M removed: the residual is W-orthogonal to M
-    resid, got = project_out(torch.einsum("bk,bkhwc->bhwc", c, m) + person, m, w)
+    resid, got, _ = project_out(torch.einsum("bk,bkhwc->bhwc", c, m) + person, m, w)
     assert torch.allclose(got, c, rtol=1e-6, atol=1e-10)  # the solve's 1e-9 ridge
     assert torch.allclose(resid, person, atol=1e-5 * float(person.abs().max()))
 
@@ -61,7 +61,7 @@ def test_matches_the_slow_reference():
     clipped = torch.zeros(3, H, W, dtype=torch.bool)
     clipped[:, 6, 9] = True
     m, w = nuisance_basis(b, frac, rel), noise_weights(b, clipped)
-    r1, c1 = project_out(d, m, w)
+    r1, c1, se = project_out(d, m, w)
     r2, c2 = project_out_reference(d, m, w)
     assert torch.allclose(c1, c2, rtol=1e-5, atol=1e-9)  # the solve's 1e-9 ridge
     assert torch.allclose(r1, r2, atol=1e-6 * float(r2.abs().max()))
@@ -80,7 +80,7 @@ def test_estimates_the_drift_that_was_drawn():
     a = draw_captures(preset("rough"), n, 16, L.f_px, L.depth_m, g, dtype=torch.float64)
     base = sum(L.nominal())
     photo, empty = base + L.change(a), base[None].expand(n, -1, -1, -1)
-    resid, c = proj(photo.float() - empty.float(), empty.float())
+    resid, c, _ = proj(photo.float() - empty.float(), empty.float())
     change = photo - empty
     assert float(resid.double().norm() / change.norm()) < 0.01
     truth = [a.projector * a.exposure - 1, a.ambient * a.exposure - 1, a.shift[:, 0], a.shift[:, 1], a.roll,
@@ -101,3 +101,20 @@ def test_checkpoint_round_trip():
     assert q.ready and torch.equal(q.fraction, p.fraction) and torch.equal(q.relative, p.relative)
     with pytest.raises(ValueError, match="room prior"):
         q(torch.zeros(1, 4, 4, 3), torch.ones(1, 4, 4, 3))
+
+
+def test_standard_errors_are_calibrated():
+    """With noise of variance 1 / W (the weights' own model) the coefficients' errors over their
+    standard errors are standard normal: z-scores of 400 draws have a standard deviation near 1."""
+    L = smooth_room(5)
+    frac, rel = prior(L)
+    n = 400
+    b = sum(L.nominal())[None].expand(n, -1, -1, -1)
+    m, w = nuisance_basis(b, frac, rel), noise_weights(b, None)
+    g = torch.Generator().manual_seed(6)
+    c = 1e-3 * torch.randn(n, 7, generator=g, dtype=torch.float64)
+    d = torch.einsum("bk,bkhwc->bhwc", c, m) + torch.randn(b.shape, generator=g, dtype=torch.float64) / w.sqrt()
+    _, got, se = project_out(d, m, w)
+    z = (got - c) / se
+    assert torch.allclose(z.std(0), torch.ones(7, dtype=torch.float64), atol=0.1)
+    assert float(z.mean(0).abs().max()) < 0.2
