@@ -206,6 +206,8 @@ def cmd_fit(args: argparse.Namespace) -> None:
                if getattr(args, k) is not None}
     if "burst" in changes:
         changes["burst_frames"] = changes.pop("burst")
+    if args.no_projection:
+        changes["project_nuisance"] = False
     if args.checkpoint:
         changes["checkpoint"] = args.checkpoint
     cfg = dataclasses.replace(PRESETS[args.preset], **changes)
@@ -375,6 +377,8 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--workers", type=int, help="processes rendering people (default 2)")
     f.add_argument("--capture-preset", help="capture variation to train for: tripod (default), rough, or ideal "
                                             "(photographs that match to the last bit: the recipe before drift)")
+    f.add_argument("--no-projection", action="store_true", help="train under the capture variation without "
+                                                                 "projecting its directions out (an ablation)")
     f.add_argument("--preset", default="default", help="default, or tiny (tens of people: a first look, tests)")
     f.add_argument("--seed", type=int, help="master seed (default 0)")
     f.add_argument("--resume", action="store_true", help="continue the fit in --out")

@@ -52,8 +52,10 @@ class FitConfig:
     """Processes rendering people (one torch thread each)."""
     capture_preset: str = "tripod"
     """Capture variation the room model is trained to survive (``render.variation``: ideal, tripod,
-    rough); any but 'ideal' also projects the variation's directions out of every photograph
-    (``models.nuisance``). 'ideal' is the recipe before drift was modelled."""
+    rough); 'ideal' is the recipe before drift was modelled."""
+    project_nuisance: bool = True
+    """Under a capture variation, project its directions out of every photograph (``models.nuisance``)
+    before the network reads it (False: the network alone learns to ignore the drift)."""
 
     def __post_init__(self) -> None:
         checks = {"people": 1, "heldout": 1, "transport_people": 1, "burst_frames": 1, "resolution": 8,

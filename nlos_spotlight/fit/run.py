@@ -29,7 +29,7 @@ from .config import FitConfig
 FORMAT = "nlos-room-model/1"
 RESUMABLE_CHANGES = ("workers",)
 """Settings a resumed fit may change: the process count (the output is byte-identical)."""
-TRAINING_ONLY = ("capture_preset", "epochs", "min_steps", "workers")
+TRAINING_ONLY = ("capture_preset", "project_nuisance", "epochs", "min_steps", "workers")
 """Settings that leave the room and its rendered people as they are (``--people-from`` may differ in them)."""
 
 

@@ -25,7 +25,7 @@ def fit_train_config(cfg: FitConfig, out: Path | None = None) -> TrainConfig:
     """``seen_config`` for one room with the fit's capture (``capture_overrides``), its capture
     variation (projected out of the photographs unless 'ideal') and spot policy."""
     tc = seen_config(1, seed=cfg.seed, noise=True, policy=cfg.policy)
-    drift = cfg.capture_preset != "ideal"
+    drift = cfg.capture_preset != "ideal" and cfg.project_nuisance
     return dataclasses.replace(tc, name="room-model", sensor=capture_overrides(out, cfg), variation=cfg.capture_preset,
                                net=dataclasses.replace(tc.net, project_nuisance=drift))
 
