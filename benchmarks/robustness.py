@@ -9,7 +9,8 @@ draws for every condition:
 * capture effects (``render.variation.EFFECTS``: camera-shift, camera-roll, projector-gain,
   spot-drift, ambient-gain, exposure), each alone at ``--magnitudes`` times the ``tripod`` preset;
 * ``pixel-integrated``: the person's light rendered again at ``--pixel-samples``^2 sub-samples a
-  pixel (the fit stores it at the pixel's centre); ``shadow``: the fit's light plus the spot light
+  pixel (the fit stores it at the pixel's centre; a few people are also rendered again at the fit's
+  own settings, to check they are the dataset's); ``shadow``: the fit's light plus the spot light
   the body blocks (``nlos_shadow``, in every real with-minus-without photograph); ``camera``: both;
   ``clothing-dark`` / ``clothing-light``: the camera photographs of people dressed in albedo 0.05 /
   0.9 (exact: the person's light is linear in it, the shadow is not);
@@ -44,6 +45,8 @@ from nlos_spotlight.errors import NlosError
 COLUMNS = ("room", "reading", "condition", "magnitude", "posture_accuracy", "posture3_accuracy", "error_cm", "people")
 CAMERA_CONDITIONS = ("pixel-integrated", "shadow", "camera", "clothing-dark", "clothing-light", "all")
 CLOTHING = {"clothing-dark": 0.05, "clothing-light": 0.9}
+REPRODUCED = 10
+"""Held-out people rendered again at the fit's own settings: the check that they are the dataset's."""
 
 
 @dataclasses.dataclass
@@ -111,10 +114,11 @@ def camera_people(room: Room, cache: Path, pixel_samples: int) -> dict[str, np.n
     base = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
                           spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples, device="cpu")
     t0 = time.perf_counter()
-    fit = builder.rerender(room.indices, base, room.aim, ("nlos", "nlos_ambient"))
+    check = room.indices[:REPRODUCED]  # the dataset's people, drawn again: a few rendered as the fit did
+    fit = builder.rerender(check, base, room.aim, ("nlos",))
     fine = builder.rerender(room.indices, dataclasses.replace(base, transport_pixel_samples=pixel_samples), room.aim,
                             ("nlos", "nlos_ambient", "nlos_shadow"))
-    out = {"indices": np.asarray(room.indices), "fit_nlos": fit["nlos"], "fit_nlos_ambient": fit["nlos_ambient"],
+    out = {"indices": np.asarray(room.indices), "fit_nlos": fit["nlos"],
            **{f"fine_{k}": v for k, v in fine.items()}, "seconds": np.float64(time.perf_counter() - t0)}
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_npz(path, **out)
@@ -130,11 +134,16 @@ def with_person_light(test, spot: int, nlos: np.ndarray, nlos_ambient: np.ndarra
     return dataclasses.replace(test, u=u, v=v, nlos_ambient=torch.as_tensor(nlos_ambient, dtype=test.nlos_ambient.dtype))
 
 
+def spot_vector(room: Room, test) -> torch.Tensor:
+    y = torch.zeros(test.u.shape[1])
+    y[room.spot] = 1
+    return y
+
+
 def score(room: Room, test, variation=None, seed: int = 0) -> dict:
     from nlos_spotlight.evaluate.seen import score_rooms
 
-    y = torch.zeros(test.u.shape[1])
-    y[room.spot] = 1
+    y = spot_vector(room, test)
     res = score_rooms(room.models.net, room.models.config.net, room.sensor, [test], [(y, "spot")], True, seed,
                       variation=variation)
     return {k: res[k] for k in ("posture_accuracy", "posture3_accuracy", "error_cm")}
@@ -143,6 +152,7 @@ def score(room: Room, test, variation=None, seed: int = 0) -> dict:
 def conditions(room: Room, people: dict | None, magnitudes: list[float]):
     """(condition, magnitude, test people, variation) for every row of one room model."""
     from nlos_spotlight.render.variation import CAPTURE_EFFECTS, preset
+    from nlos_spotlight.train.imaging import form_parts
 
     tripod = preset("tripod")
     yield "ideal", 0.0, room.test, None
@@ -156,8 +166,9 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float]):
     cam = lambda a: with_person_light(t, room.spot, people["fine_nlos"] * (a / albedo) + people["fine_nlos_shadow"],
                                       people["fine_nlos_ambient"] * ((1 - a) / (1 - albedo)))
     yield "pixel-integrated", 1.0, with_person_light(t, room.spot, people["fine_nlos"], people["fine_nlos_ambient"]), None
-    yield "shadow", 1.0, with_person_light(t, room.spot, people["fit_nlos"] + people["fine_nlos_shadow"],
-                                           people["fit_nlos_ambient"]), None
+    lit, amb, _ = form_parts(t, torch.arange(t.num_samples), spot_vector(room, t), "spot")
+    yield "shadow", 1.0, with_person_light(t, room.spot, lit.double().numpy() + people["fine_nlos_shadow"],
+                                           amb.double().numpy()), None
     yield "camera", 1.0, cam(albedo), None
     for name, a in CLOTHING.items():
         yield name, 1.0, cam(np.full_like(albedo, a)), None
@@ -181,8 +192,7 @@ def flag_rates(room: Room, multiples: list[float], per: int, seed: int = 0) -> l
     burst = room.sensor.burst_frames
     tol = tolerance(room.models.config.variation, burst, L.f_px, L.depth_m)
     gen = torch.Generator().manual_seed(30_000 + seed)
-    y = torch.zeros(t.u.shape[1])
-    y[room.spot] = 1
+    y = spot_vector(room, t)
     rows = []
     for m in multiples:
         v = preset("tripod").capture_effects.scaled(m)
@@ -213,14 +223,32 @@ def flag_rates(room: Room, multiples: list[float], per: int, seed: int = 0) -> l
     return rows
 
 
+def person_light_removed(room: Room) -> dict:
+    """Share of the held-out people's light (weighted as the projection weighs it, noise-free) that
+    projecting out each direction alone, and all seven, removes: what the reading gives up."""
+    from nlos_spotlight.models.nuisance import DIRECTIONS, noise_weights, nuisance_basis, project_out, room_prior
+    from nlos_spotlight.train.imaging import form_parts
+
+    t, L = room.test, room.test.layers
+    lit, amb, _ = form_parts(t, torch.arange(t.num_samples), spot_vector(room, t), "spot")
+    person = (lit + amb).double()
+    b = sum(L.nominal()).double()[None].expand_as(person)
+    frac, rel = room_prior(L)
+    m, w = nuisance_basis(b, frac.double(), rel.double()), noise_weights(b, None)
+    energy = lambda x: float((w * x ** 2).sum())
+    out = {d: 1 - energy(project_out(person, m[:, k:k + 1], w)[0]) / energy(person) for k, d in enumerate(DIRECTIONS)}
+    out["all"] = 1 - energy(project_out(person, m, w)[0]) / energy(person)
+    out["person_over_room"] = float(person.abs().mean() / b.abs().mean())
+    return out
+
+
 def reproduction_gap(room: Room, people: dict) -> float:
     """Relative L2 of the stored people's light against the same settings rendered again (the
     re-rendered people are the dataset's)."""
     from nlos_spotlight.train.imaging import form_parts
 
-    y = torch.zeros(room.test.u.shape[1])
-    y[room.spot] = 1
-    lit, _, _ = form_parts(room.test, torch.arange(room.test.num_samples), y, "spot")
+    n = len(people["fit_nlos"])
+    lit, _, _ = form_parts(room.test, torch.arange(n), spot_vector(room, room.test), "spot")
     a = lit.double().numpy()
     return float(np.linalg.norm(a - people["fit_nlos"]) / np.linalg.norm(people["fit_nlos"]))
 
@@ -296,10 +324,11 @@ def main(argv=None) -> int:
         people = None if args.no_render else camera_people(room, Path(args.cache), args.pixel_samples)
         if people is not None:
             rel = lambda a, b: float(np.linalg.norm(a - b) / np.linalg.norm(b))
-            notes[f"{name}:{reading}"] = {
+            notes[f"{name}:{reading}"] = {**notes.get(f"{name}:{reading}", {}),
                 "reproduction_gap": reproduction_gap(room, people), "render_s": float(people["seconds"]),
                 "pixel_integration_gap": rel(people["fit_nlos"], people["fine_nlos"]),
                 "shadow_over_nlos": rel(people["fine_nlos"] + people["fine_nlos_shadow"], people["fine_nlos"])}
+        notes.setdefault(f"{name}:{reading}", {})["person_light_removed"] = person_light_removed(room)
         flags += flag_rates(room, [float(m) for m in args.flag_multiples.split(",")], args.flag_captures, args.seed)
         for cond, mag, test, var in conditions(room, people, mags):
             r = score(room, test, var, args.seed)

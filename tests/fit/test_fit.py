@@ -98,6 +98,30 @@ def test_predict_reads_the_room_model(fitted, tmp_path, capsys):
     assert np.linalg.norm(room - center) == pytest.approx(np.hypot(frame["x_m"], frame["y_m"]), abs=1e-6)
 
 
+def test_predict_reports_the_drift(fitted, tmp_path, capsys):
+    """A room model trained under drift (the default, tripod) reports per capture what changed since
+    the empty-room burst: a capture with the projector 5% brighter is flagged on the projector
+    (estimated to within a tenth), the photograph as taken is not."""
+    out, _ = fitted
+    hp = np.load(out / "train" / "heldout.npz")
+    img, bg = hp["photo_image"], hp["photo_background"]
+    k = int(np.flatnonzero(~np.isnan(img[:, 0, 0, 0]))[0])
+    from nlos_spotlight.train.checkpoint import load_trained
+
+    frac = load_trained(out).net.nuisance.fraction.numpy()
+    brighter = img[k] + 0.05 * bg[k] * frac
+    np.save(tmp_path / "two.npy", np.stack([img[k], brighter]))
+    np.save(tmp_path / "empty.npy", bg[k])
+    assert main(["predict", str(out), str(tmp_path / "two.npy"), "--background", str(tmp_path / "empty.npy"),
+                 "--json", str(tmp_path / "p.json"), "--csv", str(tmp_path / "p.csv")]) == 0
+    said = capsys.readouterr().out
+    assert "1 of 2 captures beyond what the room model tolerates" in " ".join(said.split())
+    frames = json.loads((tmp_path / "p.json").read_text())["frames"]
+    assert not frames[0]["drift"]["flagged"] and frames[1]["drift"]["flagged"]
+    assert frames[1]["drift"]["projector"] - frames[0]["drift"]["projector"] == pytest.approx(0.05, rel=0.1)
+    assert "drift_projector" in (tmp_path / "p.csv").read_text().splitlines()[0]
+
+
 def test_resume_redoes_nothing(fitted, room_dir):
     out, report = fitted
     stamps = {p: p.stat().st_mtime_ns for p in (out / "data").rglob("*.npz")}
