@@ -5,15 +5,19 @@ For every room model (``--model ROOM:READING=DIR``; ``READING`` names its recipe
 photographed under one condition at a time and read by its network, with the same sensor noise
 draws for every condition:
 
-* ``ideal``: the fit's own photographs (magnitude 0);
+* ``fit-photographs`` (magnitude 0): the fit's own photographs (its report's figure: the
+  person-free light as the dataset stores it, 2 x 2 samples a pixel);
+* ``ideal`` (magnitude 0): the room's light converged (the fit's static layers, 8 x 8 cells a
+  pixel, as a camera integrates it; every other condition is photographed in it too), no drift;
 * capture effects (``render.variation.EFFECTS``: camera-shift, camera-roll, projector-gain,
   spot-drift, ambient-gain, exposure), each alone at ``--magnitudes`` times the ``tripod`` preset;
-* ``pixel-integrated``: the person's light rendered again at ``--pixel-samples``^2 sub-samples a
+* ``pixel-integrated``: the person's light rendered again at ``--pixel-samples``^2 (default 2 x 2) sub-samples a
   pixel (the fit stores it at the pixel's centre; a few people are also rendered again at the fit's
   own settings, to check they are the dataset's); ``shadow``: the fit's light plus the spot light
   the body blocks (``nlos_shadow``, in every real with-minus-without photograph); ``camera``: both;
   ``clothing-dark`` / ``clothing-light``: the camera photographs of people dressed in albedo 0.05 /
   0.9 (exact: the person's light is linear in it, the shadow is not);
+* ``capture-all``: every capture effect at 1x ``tripod`` together, on the fit's person light;
 * ``all``: every capture effect at 1x ``tripod`` on the camera photographs.
 
 The people are rendered again once per room (``--cache``, resumable, atomic) and shared by the
@@ -43,8 +47,11 @@ import torch
 from nlos_spotlight.errors import NlosError
 
 COLUMNS = ("room", "reading", "condition", "magnitude", "posture_accuracy", "posture3_accuracy", "error_cm", "people")
-CAMERA_CONDITIONS = ("pixel-integrated", "shadow", "camera", "clothing-dark", "clothing-light", "all")
+CAMERA_CONDITIONS = ("pixel-integrated", "shadow", "camera", "clothing-dark", "clothing-light", "all", "capture-all")
 CLOTHING = {"clothing-dark": 0.05, "clothing-light": 0.9}
+SHADOW_SAMPLES = 1024
+"""Static points relaying the light the body blocks (the renderer's default 4,096 at 2 x 2 sub-samples
+a pixel costs about a minute a person: 67 million shadow rays at 4 x 4)."""
 REPRODUCED = 10
 """Held-out people rendered again at the fit's own settings: the check that they are the dataset's."""
 
@@ -116,7 +123,8 @@ def camera_people(room: Room, cache: Path, pixel_samples: int) -> dict[str, np.n
     t0 = time.perf_counter()
     check = room.indices[:REPRODUCED]  # the dataset's people, drawn again: a few rendered as the fit did
     fit = builder.rerender(check, base, room.aim, ("nlos",))
-    fine = builder.rerender(room.indices, dataclasses.replace(base, transport_pixel_samples=pixel_samples), room.aim,
+    fine = builder.rerender(room.indices, dataclasses.replace(base, transport_pixel_samples=pixel_samples,
+                                                              shadow_samples=SHADOW_SAMPLES), room.aim,
                             ("nlos", "nlos_ambient", "nlos_shadow"))
     out = {"indices": np.asarray(room.indices), "fit_nlos": fit["nlos"],
            **{f"fine_{k}": v for k, v in fine.items()}, "seconds": np.float64(time.perf_counter() - t0)}
@@ -154,24 +162,26 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float]):
     from nlos_spotlight.render.variation import CAPTURE_EFFECTS, preset
     from nlos_spotlight.train.imaging import form_parts
 
-    tripod = preset("tripod")
-    yield "ideal", 0.0, room.test, None
+    tripod, ideal = preset("tripod"), preset("ideal")
+    yield "fit-photographs", 0.0, room.test, None
+    yield "ideal", 0.0, room.test, ideal
     for effect in CAPTURE_EFFECTS:
         for m in magnitudes:
             yield effect, m, room.test, tripod.only(effect).scaled(m)
+    yield "capture-all", 1.0, room.test, tripod.capture_effects
     if people is None:
         return
     t = room.test
     albedo = t.albedo.numpy()[:, None, None, :]
     cam = lambda a: with_person_light(t, room.spot, people["fine_nlos"] * (a / albedo) + people["fine_nlos_shadow"],
                                       people["fine_nlos_ambient"] * ((1 - a) / (1 - albedo)))
-    yield "pixel-integrated", 1.0, with_person_light(t, room.spot, people["fine_nlos"], people["fine_nlos_ambient"]), None
+    yield "pixel-integrated", 1.0, with_person_light(t, room.spot, people["fine_nlos"], people["fine_nlos_ambient"]), ideal
     lit, amb, _ = form_parts(t, torch.arange(t.num_samples), spot_vector(room, t), "spot")
     yield "shadow", 1.0, with_person_light(t, room.spot, lit.double().numpy() + people["fine_nlos_shadow"],
-                                           amb.double().numpy()), None
-    yield "camera", 1.0, cam(albedo), None
+                                           amb.double().numpy()), ideal
+    yield "camera", 1.0, cam(albedo), ideal
     for name, a in CLOTHING.items():
-        yield name, 1.0, cam(np.full_like(albedo, a)), None
+        yield name, 1.0, cam(np.full_like(albedo, a)), ideal
     yield "all", 1.0, cam(albedo), tripod.capture_effects
 
 
@@ -258,7 +268,7 @@ def table(csv_path: Path) -> str:
     capture effects at 2x), then the goals' verdicts (issue 35) per reading."""
     rows = list(csv.DictReader(Path(csv_path).open()))
     key = lambda r: (r["room"], r["reading"])
-    ideal = {key(r): r for r in rows if r["condition"] == "ideal"}
+    ideal = {key(r): r for r in rows if r["condition"] == "ideal"}  # the converged room, no drift
     conds = []
     for r in rows:
         c = (r["condition"], float(r["magnitude"]))
@@ -274,7 +284,9 @@ def table(csv_path: Path) -> str:
                      + " | ".join(cell(got[(k, c, m)]) if (k, c, m) in got else "" for k in models) + " |")
     lines += ["", "Six-way posture / error (cm) on the held-out people; the goals (points and error ratio "
               "against the same model's ideal):", ""]
-    goals = [("all at 1x tripod: within 5 points, 1.3x", lambda c, m: c == "all", 5, 1.3),
+    goals = [("every capture effect together at 1x tripod: within 5 points, 1.3x", lambda c, m: c == "capture-all",
+              5, 1.3),
+             ("all, camera photographs included, at 1x tripod: within 5 points, 1.3x", lambda c, m: c == "all", 5, 1.3),
              ("each capture effect at 2x: within 10 points, 1.5x",
               lambda c, m: c not in CAMERA_CONDITIONS and m == 2.0, 10, 1.5),
              ("camera photographs (pixel-integrated, shadow): within 3 points, 1.1x",
@@ -301,7 +313,8 @@ def main(argv=None) -> int:
     ap.add_argument("--model", action="append", required=True, help="ROOM:READING=ROOM_MODEL_DIR (repeat)")
     ap.add_argument("--people", type=int, default=100, help="held-out people per room (default 100)")
     ap.add_argument("--magnitudes", default="0.5,1,2", help="multiples of the tripod preset (default 0.5,1,2)")
-    ap.add_argument("--pixel-samples", type=int, default=4, help="sub-samples a pixel side for pixel-integrated")
+    ap.add_argument("--pixel-samples", type=int, default=2, help="sub-samples a pixel side for pixel-integrated "
+                                                                  "(2: as the issue measured, 2 x 2 and 4 x 4 read alike)")
     ap.add_argument("--no-render", action="store_true", help="capture effects only (no people rendered again)")
     ap.add_argument("--cache", default="out/robustness", help="the people rendered again, per room")
     ap.add_argument("--seed", type=int, default=0, help="sensor noise and drift draws")
@@ -323,10 +336,13 @@ def main(argv=None) -> int:
         room = load_room(name, reading, Path(path), args.people)
         people = None if args.no_render else camera_people(room, Path(args.cache), args.pixel_samples)
         if people is not None:
+            from nlos_spotlight.train.imaging import form_parts
+
             rel = lambda a, b: float(np.linalg.norm(a - b) / np.linalg.norm(b))
+            stored = form_parts(room.test, torch.arange(room.test.num_samples), spot_vector(room, room.test))[0]
             notes[f"{name}:{reading}"] = {**notes.get(f"{name}:{reading}", {}),
                 "reproduction_gap": reproduction_gap(room, people), "render_s": float(people["seconds"]),
-                "pixel_integration_gap": rel(people["fit_nlos"], people["fine_nlos"]),
+                "pixel_integration_gap": rel(stored.double().numpy(), people["fine_nlos"]),
                 "shadow_over_nlos": rel(people["fine_nlos"] + people["fine_nlos_shadow"], people["fine_nlos"])}
         notes.setdefault(f"{name}:{reading}", {})["person_light_removed"] = person_light_removed(room)
         flags += flag_rates(room, [float(m) for m in args.flag_multiples.split(",")], args.flag_captures, args.seed)

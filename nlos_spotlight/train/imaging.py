@@ -124,9 +124,10 @@ def capture(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor | None, mode: st
     the illumination (y, mode): photographs (``form_images`` + ``photographs``) and, for a
     geometry-aware network, the room's geometry channels under that light. ``albedo`` (B, 3):
     the people dressed in these albedos (``form_images``). ``variation``
-    (``render.variation.CaptureVariation``): person and empty-room captures that differ as real
-    ones do (``drifted_images``; spot light only); None or ideal: they match exactly."""
-    if variation is not None and not variation.is_ideal:
+    (``render.variation.CaptureVariation``): person and empty-room captures of the room's converged
+    static light (its layers) that differ as real ones do (``drifted_images``; spot light only; the
+    ideal preset: they match exactly); None: the dataset's own photographs."""
+    if variation is not None:
         if mode != "spot":
             raise NlosError(f"capture variation: modelled for the spot light, not {mode!r}")
         images, empty, person_free = drifted_images(s, idx, y, albedo, variation, sensor.burst_frames, generator)

@@ -112,7 +112,8 @@ class Trainer:
         self.net.set_targets(torch.cat([s.target for s in self.scenes]))
         from ..render.variation import preset
 
-        self.variation = preset(cfg.variation)
+        variation = preset(cfg.variation)
+        self.variation = None if variation.is_ideal else variation  # ideal: the dataset's own photographs
         if cfg.net.project_nuisance:
             self.net.nuisance.set_prior(*room_prior_of(self.scenes))
         self.image_shape = (h, w)
