@@ -22,7 +22,7 @@ draws for every condition:
 
 The people are rendered again once per room (``--cache``, resumable, atomic) and shared by the
 readings. ``python benchmarks/robustness.py --table CSV`` prints the summary table and the goals'
-verdicts. Writes ``--out`` (CSV: room, reading, condition, magnitude, posture_accuracy,
+verdicts; ``--merge OUT.csv A.csv B.csv ...`` joins per-room runs. Writes ``--out`` (CSV: room, reading, condition, magnitude, posture_accuracy,
 posture3_accuracy, error_cm, people), ``*-flags.csv`` (how often ``nlos predict``'s drift flag is
 right, :func:`flag_rates`) and a JSON of the run's settings and versions beside it.
 
@@ -279,8 +279,8 @@ def table(csv_path: Path) -> str:
              "|---|" + "---|" * len(models)]
     cell = lambda r: f"{float(r['posture_accuracy']):.0f}% / {float(r['error_cm']):.1f}"
     got = {(key(r), r["condition"], float(r["magnitude"])): r for r in rows}
-    for c, m in [("ideal", 0.0)] + conds:
-        lines.append(f"| {c}{'' if c == 'ideal' else f' x{m:g}'} | "
+    for c, m in [("fit-photographs", 0.0), ("ideal", 0.0)] + conds:
+        lines.append(f"| {c}{'' if m == 0 else f' x{m:g}'} | "
                      + " | ".join(cell(got[(k, c, m)]) if (k, c, m) in got else "" for k in models) + " |")
     lines += ["", "Six-way posture / error (cm) on the held-out people; the goals (points and error ratio "
               "against the same model's ideal):", ""]
@@ -305,9 +305,29 @@ def table(csv_path: Path) -> str:
     return "\n".join(lines)
 
 
+def merge(out: Path, parts: list[Path]) -> None:
+    """One CSV (and flags CSV) from the per-room runs, in their order."""
+    for suffix in ("", "-flags"):
+        rows, header = [], None
+        for p in parts:
+            f = p.with_name(p.stem + suffix + ".csv")
+            if f.exists():
+                r = list(csv.DictReader(f.open()))
+                header = header or list(r[0])
+                rows += r
+        if header:
+            with out.with_name(out.stem + suffix + ".csv").open("w", newline="") as f:
+                w = csv.DictWriter(f, header)
+                w.writeheader()
+                w.writerows(rows)
+
+
 def main(argv=None) -> int:
     if argv is None and len(sys.argv) == 3 and sys.argv[1] == "--table":
         print(table(Path(sys.argv[2])))
+        return 0
+    if argv is None and len(sys.argv) > 3 and sys.argv[1] == "--merge":
+        merge(Path(sys.argv[2]), [Path(p) for p in sys.argv[3:]])
         return 0
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--model", action="append", required=True, help="ROOM:READING=ROOM_MODEL_DIR (repeat)")
