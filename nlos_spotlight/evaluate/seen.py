@@ -106,12 +106,17 @@ def seen_config(rooms: int, seed: int = 0, noise: bool = True, policy: str = "or
 
 def score(tr: Trainer, rooms: list[RoomSplit], noise: bool, seed: int = 0, batch: int = 128) -> dict:
     """Predictions of a trained run on its rooms' test people, each room under the run's spot
-    (:func:`score_rooms`)."""
+    (:func:`score_rooms`). Rooms with static layers (``nlos fit``) are photographed in their
+    converged light with no drift (``render.variation`` 'ideal'), as the camera would see them."""
+    from ..render.variation import preset
+
     lights = []
     for s in tr.scenes:
         (y, mode, _), = tr.illuminations([s], train=False)
         lights.append((y, mode))
-    return score_rooms(tr.net, tr.cfg.net, tr.sensor, [r.test for r in rooms], lights, noise, seed, batch)
+    converged = all(r.test.layers is not None for r in rooms)
+    return score_rooms(tr.net, tr.cfg.net, tr.sensor, [r.test for r in rooms], lights, noise, seed, batch,
+                       variation=preset("ideal") if converged else None)
 
 
 def score_rooms(net, net_cfg: NLOSNetConfig, sensor, rooms: list[SceneTensors], lights: list[tuple], noise: bool,
