@@ -122,6 +122,28 @@ def test_predict_reports_the_drift(fitted, tmp_path, capsys):
     assert "drift_projector" in (tmp_path / "p.csv").read_text().splitlines()[0]
 
 
+def test_people_from_another_fit(fitted, room_dir, tmp_path):
+    """--people-from trains on another room model's rendered people (hard links, nothing rendered
+    again) under another capture preset; a fit with other people settings is refused, leaving nothing."""
+    import dataclasses
+
+    from nlos_spotlight.errors import NlosError
+    from nlos_spotlight.train.checkpoint import load_trained
+
+    src, _ = fitted
+    out = tmp_path / "ideal"
+    report = fit_room(str(room_dir), out, dataclasses.replace(TINY, capture_preset="ideal"), {}, progress=False,
+                      people_from=src)
+    assert report["heldout"]["people"] == TINY.heldout
+    a, b = sorted((src / "data").rglob("images/*.npz"))[0], sorted((out / "data").rglob("images/*.npz"))[0]
+    assert a.stat().st_ino == b.stat().st_ino
+    assert load_trained(out).net.nuisance is None and load_trained(src).net.nuisance is not None
+    with pytest.raises(NlosError, match="differs in: people"):
+        fit_room(str(room_dir), tmp_path / "other", dataclasses.replace(TINY, people=TINY.people + 1), {},
+                 progress=False, people_from=src)
+    assert not (tmp_path / "other").exists()
+
+
 def test_resume_redoes_nothing(fitted, room_dir):
     out, report = fitted
     stamps = {p: p.stat().st_mtime_ns for p in (out / "data").rglob("*.npz")}
