@@ -73,7 +73,7 @@ class Room:
 
 def load_room(name: str, reading: str, path: Path, people: int) -> Room:
     from nlos_spotlight.fit.config import FitConfig
-    from nlos_spotlight.fit.train import fit_train_config, room_layers, room_split
+    from nlos_spotlight.fit.train import fit_train_config, room_layers, room_split, split_period
     from nlos_spotlight.train.checkpoint import load_trained
     from nlos_spotlight.train.imaging import capture_sensor
 
@@ -91,8 +91,7 @@ def load_room(name: str, reading: str, path: Path, people: int) -> Room:
     from nlos_spotlight.evaluate.seen import split_masks
 
     s, = load_split(path / "data", "train", ["normals"], samples="images")
-    period = 10 if s.num_samples >= 10 * cfg.heldout else max(3, s.num_samples // cfg.heldout)
-    test_mask = split_masks(s, period, cfg.heldout)[2]
+    test_mask = split_masks(s, split_period(s.num_samples, cfg.heldout), cfg.heldout)[2]
     idx = (torch.nonzero(test_mask).flatten()[:people] + cfg.transport_people).tolist()
     tc = fit_train_config(cfg, path)
     return Room(name, reading, path, load_trained(path), test, int(rep["spot"]["face"]), np.asarray(rep["spot"]["aim"]),

@@ -59,8 +59,12 @@ def room_split(out: Path, cfg: FitConfig, features: list[str]) -> RoomSplit:
     from ..data.tensors import load_split
 
     s, = load_split(Path(out) / "data", "train", features, samples="images")
-    period = 10 if s.num_samples >= 10 * cfg.heldout else max(3, s.num_samples // cfg.heldout)
-    return split_room(s, period=period, max_eval=cfg.heldout)
+    return split_room(s, period=split_period(s.num_samples, cfg.heldout), max_eval=cfg.heldout)
+
+
+def split_period(samples: int, heldout: int) -> int:
+    """Every how many image samples one is a test (and one a validation) person (``split_masks``)."""
+    return 10 if samples >= 10 * heldout else max(3, samples // heldout)
 
 
 def train_room(cfg: FitConfig, out: Path, progress: bool, split: RoomSplit | None = None,
