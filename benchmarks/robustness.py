@@ -73,7 +73,7 @@ class Room:
 
 def load_room(name: str, reading: str, path: Path, people: int) -> Room:
     from nlos_spotlight.fit.config import FitConfig
-    from nlos_spotlight.fit.train import fit_train_config, room_layers, room_split, split_period
+    from nlos_spotlight.fit.train import fit_train_config, room_layers, split_period
     from nlos_spotlight.train.checkpoint import load_trained
     from nlos_spotlight.train.imaging import capture_sensor
 
@@ -82,17 +82,13 @@ def load_room(name: str, reading: str, path: Path, people: int) -> Room:
     cfg = FitConfig(**{k: v for k, v in settings.items() if k in FitConfig.__dataclass_fields__})
     if people > cfg.heldout:
         raise NlosError(f"--people: {path} holds {cfg.heldout} held-out people, not {people}")
-    split = room_split(path, cfg, ["normals"])
-    k = torch.arange(split.test.num_samples)[:people]
-    layers = room_layers(path, rep["spot"]["aim"])
-    test = dataclasses.replace(split.test.subset(k), layers=layers)
-    # the held-out people's dataset indices: image samples follow the full-transport ones
     from nlos_spotlight.data.tensors import load_split
     from nlos_spotlight.evaluate.seen import split_masks
 
-    s, = load_split(path / "data", "train", ["normals"], samples="images")
-    test_mask = split_masks(s, split_period(s.num_samples, cfg.heldout), cfg.heldout)[2]
-    idx = (torch.nonzero(test_mask).flatten()[:people] + cfg.transport_people).tolist()
+    s, = load_split(path / "data", "train", ["normals"], samples="images")  # as room_split reads it
+    keep = torch.nonzero(split_masks(s, split_period(s.num_samples, cfg.heldout), cfg.heldout)[2]).flatten()[:people]
+    test = dataclasses.replace(s.subset(keep), layers=room_layers(path, rep["spot"]["aim"]))
+    idx = (keep + cfg.transport_people).tolist()  # dataset indices: image samples follow the full-transport ones
     tc = fit_train_config(cfg, path)
     return Room(name, reading, path, load_trained(path), test, int(rep["spot"]["face"]), np.asarray(rep["spot"]["aim"]),
                 capture_sensor(tuple(test.ambient.shape[:2]), tc.sensor), idx)

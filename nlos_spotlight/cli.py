@@ -244,6 +244,13 @@ def cmd_predict(args: argparse.Namespace) -> None:
         background_clipped = None if empty.clipped is None else empty.clipped.any(axis=0)
     if args.batch_size < 1:
         raise NlosError(f"--batch-size: expected a positive count, got {args.batch_size}")
+    tol = None
+    if room is not None and getattr(models.net, "nuisance", None) is not None and background is not None:
+        from .apps.drift import tolerance
+        from .render.variation import load_layers
+
+        layers = load_layers(room.path / "layers.npz")
+        tol = tolerance(models.config.variation, args.burst or 1, layers.f_px, layers.depth_m)
     if room is not None:
         console.print(room.describe())
         if (args.burst or 1) != room.burst_frames:
@@ -251,16 +258,9 @@ def cmd_predict(args: argparse.Namespace) -> None:
                           f"{room.burst_frames} to average consecutive frames of a still person")
     res = predict(models, frames, smooth=not args.no_smooth, window=args.smooth_window, order=args.smooth_order,
                   batch_size=args.batch_size, background=background, background_clipped=background_clipped,
-                  backend=args.backend)
+                  backend=args.backend, drift_tolerance=tol)
     if room is not None:
         res.room_xy = room.room_xy(res.xy)
-        if getattr(models.net, "nuisance", None) is not None and background is not None:
-            from .apps.drift import estimate_drift, tolerance
-            from .render.variation import load_layers
-
-            layers = load_layers(room.path / "layers.npz")
-            tol = tolerance(models.config.variation, args.burst or 1, layers.f_px, layers.depth_m)
-            res.drift = estimate_drift(models.net, frames.images, background, None, tol)
     aspects = {round(w / h, 2) for h, w in frames.native_shapes}
     if aspects - {round(models.image_shape[1] / models.image_shape[0], 2)}:
         console.print(f"note: inputs of size {frames.native_shapes} (H, W) were stretched to the network's "

@@ -130,11 +130,14 @@ def run_network(models: TrainedModels, images: np.ndarray, batch_size: int = 64,
 
 def predict(models: TrainedModels, frames: Frames, smooth: bool = True, window: int | None = None,
             order: int = DEFAULT_ORDER, batch_size: int = 64, background: np.ndarray | None = None,
-            background_clipped: np.ndarray | None = None, backend: str = "eager") -> Predictions:
+            background_clipped: np.ndarray | None = None, backend: str = "eager",
+            drift_tolerance: np.ndarray | None = None) -> Predictions:
     """Positions and postures of every frame; a smoothed trajectory for >= 5 frames when ``smooth``.
 
     ``window`` None picks :func:`default_window` of the frame count. The network's clip flag is
-    where the frame or the background (``background_clipped``, (H, W)) clipped.
+    where the frame or the background (``background_clipped``, (H, W)) clipped. ``drift_tolerance``
+    (7,): for a network that projects the capture drift out, also estimate each frame's drift
+    against the background and flag it beyond these limits (``apps.drift``), on the same pixels.
     """
     clipped = frames.clipped
     if background_clipped is not None:
@@ -145,6 +148,10 @@ def predict(models: TrainedModels, frames: Frames, smooth: bool = True, window: 
     times = None if frames.fps is None else np.arange(len(frames)) / frames.fps
     out = Predictions(list(frames.sources), xy, probs, times, checkpoint=str(models.path),
                       image_shape=tuple(models.image_shape))
+    if drift_tolerance is not None and getattr(models.net, "nuisance", None) is not None and background is not None:
+        from .drift import estimate_drift
+
+        out.drift = estimate_drift(models.net, frames.images, background, clipped, drift_tolerance)
     if smooth and len(frames) >= MIN_SMOOTH_FRAMES:
         out.window = window if window is not None else default_window(len(frames), order)
         out.order = order

@@ -257,8 +257,8 @@ class StaticLayers:
         return fine.reshape(*lead, hf // f, f, wf // f, f, c).mean(dim=(-4, -2))
 
     def nominal(self) -> tuple[torch.Tensor, torch.Tensor]:
-        """The binned projector and ambient images (H, W, 3) of the nominal capture."""
-        return self.bin(self.projector), self.bin(self.ambient)
+        """The binned projector and ambient images (H, W, 3) of the nominal capture (binned once)."""
+        return self._derivs()["nominal"]
 
     def static_image(self, d: CaptureDraw) -> torch.Tensor:
         """(B, H, W, 3): the static light of captures ``d`` (exposure gain included), binned.
@@ -310,7 +310,8 @@ class StaticLayers:
                 move = lambda sign: self.bin(self._warp(fine, zero2 + sign * u * torch.tensor(
                     [sx, sy], dtype=fine.dtype, device=fine.device), sign * u * sr * one))[0]
                 out.append((move(1) - move(-1)) / (2 * u))
-            object.__setattr__(self, "_cache", {"motion": torch.stack(out), "aim": self.bin(self.aim)})
+            object.__setattr__(self, "_cache", {"motion": torch.stack(out), "aim": self.bin(self.aim),
+                                                "nominal": (self.bin(self.projector), self.bin(self.ambient))})
         return self._cache
 
     def _warp(self, fine: torch.Tensor, shift: torch.Tensor, roll: torch.Tensor) -> torch.Tensor:
