@@ -43,7 +43,7 @@ def scene_from_dict(d: dict, directory: Path, human_mesh: str | Path | None = No
     for i, s in enumerate(d["shapes"]):
         where = f"shapes[{i}]"
         _check_keys(s, {"mesh", "material"}, where, ("mesh", "material"))
-        _name(s["mesh"], f"{where}.mesh")
+        inside(directory, s["mesh"], f"{where}.mesh")
         if _name(s["material"], f"{where}.material") not in materials:
             raise NlosError(f"{where}: unknown material '{s['material']}'")
         shapes.append(Shape(s["mesh"], s["material"], load_mesh(directory / s["mesh"], f"{where} ({s['mesh']})")))
@@ -59,7 +59,7 @@ def scene_from_dict(d: dict, directory: Path, human_mesh: str | Path | None = No
         if human_mesh is not None:
             mesh_file, mesh = Path(human_mesh).name, load_mesh(human_mesh, "--human")
         elif "mesh" in h:
-            _name(h["mesh"], "human.mesh")
+            inside(directory, h["mesh"], "human.mesh")
             mesh_file, mesh = h["mesh"], load_mesh(directory / h["mesh"], f"human ({h['mesh']})")
         else:
             raise NlosError("human: missing key 'mesh'")
@@ -82,6 +82,22 @@ def _name(value, where: str) -> str:
     return value
 
 
+def inside(directory: Path, name, where: str) -> Path:
+    """``directory / name`` for a mesh name that stays inside ``directory``: a relative name that does
+    not leave it, symlinks resolved (a scene is a shared file: reading or rewriting it must never
+    touch a file elsewhere)."""
+    from pathlib import PurePath
+
+    _name(name, where)
+    if PurePath(name).is_absolute() or "\\" in name or ":" in PurePath(name).parts[0]:
+        raise NlosError(f"{where}: {name!r} is an absolute path; name a file inside the scene directory")
+    root = Path(directory).resolve()
+    target = (root / name).resolve()
+    if target == root or root not in target.parents:
+        raise NlosError(f"{where}: {name!r} leaves the scene directory; name a file inside it")
+    return target
+
+
 def scene_to_dict(scene: Scene) -> dict:
     d = {"format": FORMAT, "units": "meters",
          "shapes": [{"mesh": s.mesh_file, "material": s.material} for s in scene.shapes],
@@ -101,11 +117,14 @@ def scene_to_dict(scene: Scene) -> dict:
 def save_scene(scene: Scene, directory: str | Path) -> Path:
     """Write ``scene.json`` and every mesh; the JSON goes last and atomically."""
     directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    for s in scene.shapes:
-        save_mesh(s.mesh, directory / s.mesh_file)
+    names = [(s.mesh, s.mesh_file, f"shapes[{i}].mesh") for i, s in enumerate(scene.shapes)]
     if scene.human is not None:
-        save_mesh(scene.human.mesh, directory / scene.human.mesh_file)
+        names.append((scene.human.mesh, scene.human.mesh_file, "human.mesh"))
+    paths = [(mesh, inside(directory, name, where)) for mesh, name, where in names]  # all checked first
+    directory.mkdir(parents=True, exist_ok=True)
+    for mesh, path in paths:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        save_mesh(mesh, path)
     tmp = directory / "scene.json.tmp"
     tmp.write_text(json.dumps(scene_to_dict(scene), indent=1))
     tmp.replace(directory / "scene.json")

@@ -3,7 +3,8 @@
 A checkpoint (``RUN/final.pt`` or ``RUN/checkpoint.pt``, written by ``nlos train``) holds the
 models, the optimizer and RNG states, the resolved :class:`TrainConfig`, package versions, the
 IEN's input width and the training image shape (H, W). Any unreadable or foreign file is one
-:class:`NlosError` naming the file.
+:class:`NlosError` naming the file. Checkpoints are read as data only (:func:`read_checkpoint`):
+loading one never runs code.
 """
 
 from __future__ import annotations
@@ -52,14 +53,45 @@ def resolve_checkpoint(path: str | Path) -> Path:
     return p
 
 
+def _numpy_globals() -> list:
+    """numpy's array and scalar constructors: data only (an object array's items still pass the same
+    restricted unpickler), in checkpoints written before the numpy RNG state was stored as a list."""
+    import numpy as np
+
+    core = getattr(np, "_core", None) or np.core
+    dtypes = [type(np.dtype(t)) for t in ("uint32", "int64", "float64", "float32", "bool")]
+    return [np.ndarray, np.dtype, core.multiarray._reconstruct, core.multiarray.scalar, *dtypes]
+
+
+def read_checkpoint(path: Path, device: str | torch.device = "cpu") -> dict:
+    """A checkpoint's content, read so that it cannot run code: tensors and plain data only
+    (``torch.load(weights_only=True)``; a room model is a file people share). A file holding
+    anything else is refused in one :class:`NlosError` line, as is a torn or foreign one."""
+    import pickle
+
+    try:
+        with torch.serialization.safe_globals(_numpy_globals()):
+            st = torch.load(path, map_location=device, weights_only=True)
+    except pickle.UnpicklingError as exc:
+        import re
+
+        found = re.search(r"Unsupported global: GLOBAL (\S+)", str(exc))
+        if found:
+            raise NlosError(f"{path}: refused: it holds Python objects ({found.group(1)}), not only tensors and "
+                            "plain data (loading it could run code); not an nlos-spotlight checkpoint") from None
+        raise NlosError(f"{path}: corrupted or not a checkpoint (UnpicklingError)") from None
+    except Exception as exc:  # torch raises many types on torn or foreign files
+        raise NlosError(f"{path}: corrupted or not a checkpoint ({type(exc).__name__})") from None
+    if not isinstance(st, dict):
+        raise NlosError(f"{path}: not an nlos-spotlight checkpoint (not a dictionary)")
+    return st
+
+
 def load_trained(path: str | Path, device: str | torch.device = "cpu") -> TrainedModels:
     """Load models for inference from a checkpoint file or run directory."""
     p = resolve_checkpoint(path)
-    try:
-        st = torch.load(p, map_location=device, weights_only=False)
-    except Exception as exc:  # torch raises many types on torn or foreign files
-        raise NlosError(f"{p}: corrupted or not a checkpoint ({type(exc).__name__})") from None
-    if not isinstance(st, dict) or not {"ien", "net", "config"} <= set(st):
+    st = read_checkpoint(p, device)
+    if not {"ien", "net", "config"} <= set(st):
         raise NlosError(f"{p}: not an nlos-spotlight checkpoint (missing models or config)")
     try:
         cfg = TrainConfig.from_dict(st["config"])

@@ -318,3 +318,25 @@ def test_cli_errors_exit_2_with_one_line(ckpt, bad_files, capsys):
     _fails(capsys, ["predict", str(d / "nope.pt"), str(d / "good.npy")], "checkpoint not found")
     _fails(capsys, ["predict", p, str(d / "good.npy"), "--fps", "0"], "--fps")
     _fails(capsys, ["predict", p, str(d / "six.npy"), "--smooth-window", "4"], "odd")
+
+
+class _Payload:
+    """Unpickling this creates a file: what a hostile checkpoint would do instead."""
+
+    def __init__(self, path: Path):
+        self.path = path
+
+    def __reduce__(self):
+        return Path.touch, (self.path,)
+
+
+def test_a_checkpoint_that_runs_code_is_refused_before_it_runs(ckpt, tmp_path, capsys):
+    st = torch.load(ckpt, weights_only=True)  # the real checkpoint is data only
+    marker = tmp_path / "ran"
+    st["config"]["note"] = _Payload(marker)
+    torch.save(st, tmp_path / "evil.pt")
+    with pytest.raises(NlosError, match="refused: it holds Python objects") as info:
+        load_trained(tmp_path / "evil.pt")
+    assert "\n" not in str(info.value) and not marker.exists()
+    _fails(capsys, ["predict", str(tmp_path / "evil.pt"), str(tmp_path / "x.npy")], "loading it could run code")
+    assert not marker.exists()

@@ -151,3 +151,34 @@ def test_cli_reports_one_line_and_nonzero(scene_dir, tmp_path):
                           "--out", str(tmp_path / "x.npy")], capture_output=True, text=True)
     assert res.returncode == 2
     assert res.stderr.count("\n") == 1 and res.stderr.startswith("error: ") and "Traceback" not in res.stderr
+
+
+@pytest.mark.parametrize("name,why", [("ABS", "absolute path"), ("../outside/wall.ply", "leaves the scene directory"),
+                                      ("link/wall.ply", "leaves the scene directory")])
+def test_mesh_names_stay_inside_the_scene(scene_dir, tmp_path, name, why):
+    """A shared scene must not make reading or rewriting it touch a file elsewhere (issue 36)."""
+    elsewhere = tmp_path / "outside"
+    elsewhere.mkdir()
+    (scene_dir / "relay_wall.ply").rename(elsewhere / "wall.ply")
+    (scene_dir / "link").symlink_to(elsewhere)
+    name = str(elsewhere / "wall.ply") if name == "ABS" else name
+    before = (elsewhere / "wall.ply").read_bytes()
+    _edit(scene_dir, lambda js: js["shapes"][0].update(mesh=name))
+    with pytest.raises(NlosError, match=why) as info:
+        load_scene(scene_dir)
+    assert "\n" not in str(info.value) and (elsewhere / "wall.ply").read_bytes() == before
+
+
+def test_save_scene_refuses_a_name_outside_before_writing(tmp_path):
+    scene = corner_scene("example", resolution=8)
+    scene.shapes[0].mesh_file = "../escaped.ply"
+    with pytest.raises(NlosError, match="leaves the scene directory"):
+        save_scene(scene, tmp_path / "out" / "scene")
+    assert not (tmp_path / "escaped.ply").exists() and not (tmp_path / "out").exists()
+
+
+def test_mesh_names_in_subdirectories_still_load(scene_dir):
+    (scene_dir / "meshes").mkdir()
+    (scene_dir / "relay_wall.ply").rename(scene_dir / "meshes" / "wall.ply")
+    _edit(scene_dir, lambda js: js["shapes"][0].update(mesh="meshes/wall.ply"))
+    assert load_scene(scene_dir).shapes[0].mesh_file == "meshes/wall.ply"
