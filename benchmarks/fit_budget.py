@@ -34,7 +34,7 @@ def main(argv: list[str] | None = None) -> None:
     torch.set_num_threads(args.threads)
     model = Path(args.model)
     settings = json.loads((model / "fit.json").read_text())["settings"]
-    cfg = FitConfig(**{f.name: settings[f.name] for f in dataclasses.fields(FitConfig)})
+    cfg = FitConfig.from_record(settings)
     runs = Path(args.runs) if args.runs else model / "budget"
     split = room_split(model, cfg, ["normals"])
     rows = []

@@ -189,7 +189,7 @@ def int8_on_room_model(room: Path) -> None:
     import json
 
     fit = json.loads((room / "fit.json").read_text())["settings"]
-    cfg = FitConfig(**{k: v for k, v in fit.items() if k in FitConfig.__dataclass_fields__})
+    cfg = FitConfig.from_record(fit)
     models = load_trained(room / "final.pt")
     split = room_split(room, cfg, ["normals"])
     face = json.loads((room / "report.json").read_text())["spot"]["face"]

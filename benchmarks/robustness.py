@@ -11,12 +11,18 @@ draws for every condition:
   pixel, as a camera integrates it; every other condition is photographed in it too), no drift;
 * capture effects (``render.variation.EFFECTS``: camera-shift, camera-roll, projector-gain,
   spot-drift, ambient-gain, exposure), each alone at ``--magnitudes`` times the ``tripod`` preset;
-* ``pixel-integrated``: the person's light rendered again at ``--pixel-samples``^2 (default 2 x 2) sub-samples a
-  pixel (the fit stores it at the pixel's centre; a few people are also rendered again at the fit's
-  own settings, to check they are the dataset's); ``shadow``: the fit's light plus the spot light
-  the body blocks (``nlos_shadow``, in every real with-minus-without photograph); ``camera``: both;
-  ``clothing-dark`` / ``clothing-light``: the camera photographs of people dressed in albedo 0.05 /
-  0.9 (exact: the person's light is linear in it, the shadow is not);
+* the camera photographs (:func:`camera_photographs`, rendered apart from the fit's sampling):
+  ``pixel-integrated``: the person's light integrated over each pixel (16 x 16 footprint
+  sub-samples, :data:`CAMERA_FOOTPRINT`); ``pixel-integrated-2x2``: 2 x 2 sub-samples, each
+  seeing the whole body (as the issue measured; ``--pixel-samples``; not converged: 14% from
+  8 x 8 in the copy room); ``shadow``: the fit's scattered light plus the spot light the body
+  blocks (``nlos_shadow``, 8,192 relay points, in every real with-minus-without photograph);
+  ``camera``: the integrated light and the shadow; ``clothing-dark`` / ``clothing-light``: the
+  camera photographs of people dressed in albedo 0.05 / 0.9 (exact: the scattered light is linear
+  in it, the shadow does not depend on it); a few people are also rendered again at the fit's own
+  settings, to check they are the dataset's;
+* ``mitsuba`` (``--mitsuba SPP``): with-minus-without photographs by Mitsuba 3's particle tracer
+  at 6 bounces (:func:`mitsuba_people`);
 * ``capture-all``: every capture effect at 1x ``tripod`` together, on the fit's person light;
 * ``all``: every capture effect at 1x ``tripod`` on the camera photographs.
 
@@ -47,11 +53,20 @@ import torch
 from nlos_spotlight.errors import NlosError
 
 COLUMNS = ("room", "reading", "condition", "magnitude", "posture_accuracy", "posture3_accuracy", "error_cm", "people")
-CAMERA_CONDITIONS = ("pixel-integrated", "shadow", "camera", "clothing-dark", "clothing-light", "all", "capture-all")
+CAMERA_CONDITIONS = ("pixel-integrated", "pixel-integrated-2x2", "shadow", "camera", "clothing-dark", "clothing-light",
+                     "all", "capture-all", "camera-mitsuba-people", "mitsuba")
 CLOTHING = {"clothing-dark": 0.05, "clothing-light": 0.9}
 SHADOW_SAMPLES = 1024
 """Static points relaying the light the body blocks (the renderer's default 4,096 at 2 x 2 sub-samples
 a pixel costs about a minute a person: 67 million shadow rays at 4 x 4)."""
+CAMERA_FOOTPRINT = 16
+"""The camera photographs' person light: integrated over each pixel from 16 x 16 sub-samples
+(footprint sampling, ``RenderSettings.pixel_footprint``: unbiased for the 16 x 16 render, whose
+own bias is about 1.5% in the copy room), with pixel offsets drawn apart from the fit's."""
+CAMERA_SHADOW_SAMPLES = 8192
+"""Static points relaying the light the body blocks in the camera photographs (twice the fit's)."""
+CAMERA_SEED = 7
+"""``render.transport.FOOTPRINT_SEED`` of the camera photographs (the fit's is another)."""
 REPRODUCED = 10
 """Held-out people rendered again at the fit's own settings: the check that they are the dataset's."""
 
@@ -79,13 +94,17 @@ def load_room(name: str, reading: str, path: Path, people: int) -> Room:
 
     rep = json.loads((path / "report.json").read_text())
     settings = json.loads((path / "fit.json").read_text())["settings"]
-    cfg = FitConfig(**{k: v for k, v in settings.items() if k in FitConfig.__dataclass_fields__})
+    cfg = FitConfig.from_record(settings)
     if people > cfg.heldout:
         raise NlosError(f"--people: {path} holds {cfg.heldout} held-out people, not {people}")
     from nlos_spotlight.data.tensors import load_split
     from nlos_spotlight.evaluate.seen import split_masks
 
     s, = load_split(path / "data", "train", ["normals"], samples="images")  # as room_split reads it
+    if cfg.shadow_samples > 0:  # the model's people hold the light their bodies block
+        from nlos_spotlight.fit.train import with_shadow
+
+        s = with_shadow(s, path, cfg, int(rep["spot"]["face"]))
     keep = torch.nonzero(split_masks(s, split_period(s.num_samples, cfg.heldout), cfg.heldout)[2]).flatten()[:people]
     test = dataclasses.replace(s.subset(keep), layers=room_layers(path, rep["spot"]["aim"]))
     idx = (keep + cfg.transport_people).tolist()  # dataset indices: image samples follow the full-transport ones
@@ -110,17 +129,18 @@ def camera_people(room: Room, cache: Path, pixel_samples: int) -> dict[str, np.n
             if list(z["indices"]) == room.indices:
                 return {k: z[k] for k in z.files}
     settings = json.loads((room.path / "fit.json").read_text())["settings"]
-    cfg = FitConfig(**{k: v for k, v in settings.items() if k in FitConfig.__dataclass_fields__})
+    cfg = FitConfig.from_record(settings)
     dcfg = dataclasses.replace(dataset_config(cfg, room.path / "room"), room=str((room.path / "room").resolve()))
     builder = SceneBuilder(dcfg, plan(dcfg)[0], room.path / "data")
     base = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
-                          spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples, device="cpu")
+                          pixel_footprint=dcfg.pixel_footprint, spot_samples=dcfg.spot_samples,
+                          person_samples=dcfg.person_samples, device="cpu")
     t0 = time.perf_counter()
     check = room.indices[:REPRODUCED]  # the dataset's people, drawn again: a few rendered as the fit did
     fit = builder.rerender(check, base, room.aim, ("nlos",))
     fine = builder.rerender(room.indices, dataclasses.replace(base, transport_pixel_samples=pixel_samples,
-                                                              shadow_samples=SHADOW_SAMPLES), room.aim,
-                            ("nlos", "nlos_ambient", "nlos_shadow"))
+                                                              pixel_footprint=0, shadow_samples=SHADOW_SAMPLES),
+                            room.aim, ("nlos", "nlos_ambient", "nlos_shadow"))
     out = {"indices": np.asarray(room.indices), "fit_nlos": fit["nlos"],
            **{f"fine_{k}": v for k, v in fine.items()}, "seconds": np.float64(time.perf_counter() - t0)}
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -128,13 +148,105 @@ def camera_people(room: Room, cache: Path, pixel_samples: int) -> dict[str, np.n
     return out
 
 
+def camera_photographs(room: Room, cache: Path) -> dict[str, np.ndarray]:
+    """The held-out people as a camera records them (cached): their light integrated over each pixel
+    (:data:`CAMERA_FOOTPRINT`) and the light their bodies block (:data:`CAMERA_SHADOW_SAMPLES`),
+    rendered apart from the fit's own sampling (:data:`CAMERA_SEED`): ``cam_nlos``,
+    ``cam_nlos_ambient``, ``cam_nlos_shadow``."""
+    import nlos_spotlight.render.transport as transport
+    from nlos_spotlight.data.generate import plan
+    from nlos_spotlight.data.scene_builder import SceneBuilder
+    from nlos_spotlight.data.store import atomic_npz
+    from nlos_spotlight.fit.config import FitConfig
+    from nlos_spotlight.fit.run import dataset_config
+    from nlos_spotlight.render.settings import RenderSettings
+
+    path = cache / room.name / f"camera-{len(room.indices)}-f{CAMERA_FOOTPRINT}-s{CAMERA_SHADOW_SAMPLES}.npz"
+    if path.exists():
+        with np.load(path, allow_pickle=False) as z:
+            if list(z["indices"]) == room.indices:
+                return {k: z[k] for k in z.files}
+    settings = json.loads((room.path / "fit.json").read_text())["settings"]
+    cfg = FitConfig.from_record(settings)
+    dcfg = dataclasses.replace(dataset_config(cfg, room.path / "room"), room=str((room.path / "room").resolve()))
+    builder = SceneBuilder(dcfg, plan(dcfg)[0], room.path / "data")
+    rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=CAMERA_FOOTPRINT,
+                        spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
+                        shadow_samples=CAMERA_SHADOW_SAMPLES, device="cpu")
+    t0, seed = time.perf_counter(), transport.FOOTPRINT_SEED
+    transport.FOOTPRINT_SEED = CAMERA_SEED
+    try:
+        got = builder.rerender(room.indices, rs, room.aim, ("nlos", "nlos_ambient", "nlos_shadow"))
+    finally:
+        transport.FOOTPRINT_SEED = seed
+    out = {"indices": np.asarray(room.indices), **{f"cam_{k}": v for k, v in got.items()},
+           "seconds": np.float64(time.perf_counter() - t0)}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_npz(path, **out)
+    return out
+
+
+MITSUBA_DEPTH = 6
+"""Bounces of the Mitsuba photographs (ours: the spot's light reaches the body after one bounce and
+the camera after one more, plus the body's shadow on one relay bounce)."""
+
+
+def mitsuba_people(room: Room, cache: Path, spp: int, count: int, progress: bool = True) -> dict[str, np.ndarray]:
+    """The first ``count`` held-out people photographed by Mitsuba 3's particle tracer
+    (``render.mitsuba_ref``, ``max_depth`` :data:`MITSUBA_DEPTH`): the room with the person minus
+    the room without, at the same seeds (paths that never meet the person cancel), so it holds every
+    bounce up to the depth: the light the body scatters, the light it blocks, and their
+    interreflections. Two halves of ``spp`` at other seeds give the Monte Carlo noise. One cached
+    file a person (resumable): ``mitsuba_presence`` (N, H, W, 3) and ``mitsuba_noise`` (N,), the
+    relative L2 standard error of each image."""
+    from nlos_spotlight.data.generate import plan
+    from nlos_spotlight.data.scene_builder import SceneBuilder
+    from nlos_spotlight.data.store import atomic_npz
+    from nlos_spotlight.fit.config import FitConfig
+    from nlos_spotlight.fit.run import dataset_config
+    from nlos_spotlight.render.mitsuba_ref import mitsuba_nlos
+    from nlos_spotlight.scene.format import Human
+
+    d = cache / room.name / f"mitsuba-d{MITSUBA_DEPTH}-spp{spp}"
+    d.mkdir(parents=True, exist_ok=True)
+    cfg = FitConfig.from_record(json.loads((room.path / "fit.json").read_text())["settings"])
+    dcfg = dataclasses.replace(dataset_config(cfg, room.path / "room"), room=str((room.path / "room").resolve()))
+    builder = SceneBuilder(dcfg, plan(dcfg)[0], room.path / "data")
+    scene, _ = builder._room()
+    specs, out, noise, t0 = builder._specs(scene), [], [], time.perf_counter()
+    for n, k in enumerate(room.indices[:count]):
+        path = d / f"{k:05d}.npz"
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                out.append(z["presence"])
+                noise.append(float(z["noise"]))
+            continue
+        except (OSError, ValueError, KeyError):
+            pass
+        body, person, t = builder._person(specs[k], scene.hidden_region.floor_z)
+        sc = dataclasses.replace(scene, human=Human("human.ply", np.asarray(specs[k]["params"].albedo, np.float64),
+                                                   person.translated_mesh(t)))
+        half = [mitsuba_nlos(sc, room.aim, spp // 2, seed=1000 * k + 500 * h, max_depth=MITSUBA_DEPTH,
+                             protocol="presence", integrator="ptracer") for h in (0, 1)]
+        img = (half[0] + half[1]) / 2
+        out.append(img)
+        noise.append(float(np.linalg.norm(half[0] - half[1]) / 2 / np.linalg.norm(img)))
+        atomic_npz(path, presence=img, noise=np.float64(noise[-1]))
+        if progress:
+            print(f"{room.name}: mitsuba {n + 1}/{count} people, {time.perf_counter() - t0:.0f} s, "
+                  f"Monte Carlo noise {100 * noise[-1]:.0f}%", flush=True)
+    return {"mitsuba_presence": np.stack(out), "mitsuba_noise": np.asarray(noise)}
+
+
 def with_person_light(test, spot: int, nlos: np.ndarray, nlos_ambient: np.ndarray):
-    """``test`` whose people's light under ``spot`` is ``nlos`` (N, H, W, 3) (one stored column)."""
+    """``test`` whose people's light under ``spot`` is ``nlos`` (N, H, W, 3) (one stored column, its
+    shadow term included or not as given: the stored one is dropped)."""
     n, t = test.num_samples, test.u.shape[1]
     u = torch.zeros(n, t, 1, dtype=test.u.dtype)
     u[:, spot, 0] = 1
     v = torch.as_tensor(nlos, dtype=test.v.dtype)[:, None]
-    return dataclasses.replace(test, u=u, v=v, nlos_ambient=torch.as_tensor(nlos_ambient, dtype=test.nlos_ambient.dtype))
+    return dataclasses.replace(test, u=u, v=v, nlos_ambient=torch.as_tensor(nlos_ambient, dtype=test.nlos_ambient.dtype),
+                               shadow=None)
 
 
 def spot_vector(room: Room, test) -> torch.Tensor:
@@ -168,16 +280,25 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float]):
         return
     t = room.test
     albedo = t.albedo.numpy()[:, None, None, :]
-    cam = lambda a: with_person_light(t, room.spot, people["fine_nlos"] * (a / albedo) + people["fine_nlos_shadow"],
-                                      people["fine_nlos_ambient"] * ((1 - a) / (1 - albedo)))
-    yield "pixel-integrated", 1.0, with_person_light(t, room.spot, people["fine_nlos"], people["fine_nlos_ambient"]), ideal
-    lit, amb, _ = form_parts(t, torch.arange(t.num_samples), spot_vector(room, t), "spot")
-    yield "shadow", 1.0, with_person_light(t, room.spot, lit.double().numpy() + people["fine_nlos_shadow"],
+    c = people  # the camera photographs' parts (``camera_photographs``) and the 2 x 2 renders (``camera_people``)
+    cam = lambda a: with_person_light(t, room.spot, c["cam_nlos"] * (a / albedo) + c["cam_nlos_shadow"],
+                                      c["cam_nlos_ambient"] * ((1 - a) / (1 - albedo)))
+    yield "pixel-integrated", 1.0, with_person_light(t, room.spot, c["cam_nlos"], c["cam_nlos_ambient"]), ideal
+    yield "pixel-integrated-2x2", 1.0, with_person_light(t, room.spot, c["fine_nlos"], c["fine_nlos_ambient"]), ideal
+    scattered = dataclasses.replace(t, shadow=None)  # the fit's own light of the body, without its shadow
+    lit, amb, _ = form_parts(scattered, torch.arange(t.num_samples), spot_vector(room, t), "spot")
+    yield "shadow", 1.0, with_person_light(t, room.spot, lit.double().numpy() + c["cam_nlos_shadow"],
                                            amb.double().numpy()), ideal
     yield "camera", 1.0, cam(albedo), ideal
     for name, a in CLOTHING.items():
         yield name, 1.0, cam(np.full_like(albedo, a)), ideal
     yield "all", 1.0, cam(albedo), tripod.capture_effects
+    if "mitsuba_presence" in c:  # the first people only: ours beside Mitsuba's on the same people
+        n = len(c["mitsuba_presence"])
+        few, pick = t.subset(torch.arange(n)), lambda a: a[:n]
+        yield "camera-mitsuba-people", 1.0, with_person_light(few, room.spot, pick(c["cam_nlos"]) + pick(
+            c["cam_nlos_shadow"]), pick(c["cam_nlos_ambient"])), ideal
+        yield "mitsuba", 1.0, with_person_light(few, room.spot, c["mitsuba_presence"], pick(c["cam_nlos_ambient"])), ideal
 
 
 def flag_rates(room: Room, multiples: list[float], per: int, seed: int = 0) -> list[dict]:
@@ -253,7 +374,8 @@ def reproduction_gap(room: Room, people: dict) -> float:
     from nlos_spotlight.train.imaging import form_parts
 
     n = len(people["fit_nlos"])
-    lit, _, _ = form_parts(room.test, torch.arange(n), spot_vector(room, room.test), "spot")
+    t = dataclasses.replace(room.test, shadow=None)
+    lit, _, _ = form_parts(t, torch.arange(n), spot_vector(room, t), "spot")
     a = lit.double().numpy()
     return float(np.linalg.norm(a - people["fit_nlos"]) / np.linalg.norm(people["fit_nlos"]))
 
@@ -330,6 +452,9 @@ def main(argv=None) -> int:
     ap.add_argument("--magnitudes", default="0.5,1,2", help="multiples of the tripod preset (default 0.5,1,2)")
     ap.add_argument("--pixel-samples", type=int, default=2, help="sub-samples a pixel side for pixel-integrated "
                                                                   "(2: as the issue measured, 2 x 2 and 4 x 4 read alike)")
+    ap.add_argument("--mitsuba", type=int, default=0, help="samples a pixel of the Mitsuba photographs (0: none; "
+                                                             "two halves give their noise)")
+    ap.add_argument("--mitsuba-people", type=int, default=100, help="held-out people Mitsuba photographs")
     ap.add_argument("--no-render", action="store_true", help="capture effects only (no people rendered again)")
     ap.add_argument("--cache", default="out/robustness", help="the people rendered again, per room")
     ap.add_argument("--seed", type=int, default=0, help="sensor noise and drift draws")
@@ -349,16 +474,28 @@ def main(argv=None) -> int:
         if not (Path(path) / "report.json").exists():
             raise NlosError(f"--model: {path} is not a finished room model (no report.json)")
         room = load_room(name, reading, Path(path), args.people)
-        people = None if args.no_render else camera_people(room, Path(args.cache), args.pixel_samples)
+        people = None
+        if not args.no_render:
+            people = {**camera_people(room, Path(args.cache), args.pixel_samples),
+                      **camera_photographs(room, Path(args.cache))}
+            if args.mitsuba > 0:
+                people.update(mitsuba_people(room, Path(args.cache), args.mitsuba, args.mitsuba_people))
+                notes.setdefault(f"{name}:{reading}", {})["mitsuba_noise_median"] = float(
+                    np.median(people["mitsuba_noise"]))
         if people is not None:
             from nlos_spotlight.train.imaging import form_parts
 
             rel = lambda a, b: float(np.linalg.norm(a - b) / np.linalg.norm(b))
-            stored = form_parts(room.test, torch.arange(room.test.num_samples), spot_vector(room, room.test))[0]
+            t = dataclasses.replace(room.test, shadow=None)
+            stored = form_parts(t, torch.arange(t.num_samples), spot_vector(room, t))[0].double().numpy()
             notes[f"{name}:{reading}"] = {**notes.get(f"{name}:{reading}", {}),
                 "reproduction_gap": reproduction_gap(room, people), "render_s": float(people["seconds"]),
-                "pixel_integration_gap": rel(stored.double().numpy(), people["fine_nlos"]),
-                "shadow_over_nlos": rel(people["fine_nlos"] + people["fine_nlos_shadow"], people["fine_nlos"])}
+                "pixel_integration_gap": rel(stored, people["cam_nlos"]),
+                "pixel_integration_gap_2x2": rel(people["fine_nlos"], people["cam_nlos"]),
+                "shadow_over_nlos": rel(people["cam_nlos"] + people["cam_nlos_shadow"], people["cam_nlos"])}
+            if room.test.shadow is not None:
+                sh = room.test.shadow.double().numpy()
+                notes[f"{name}:{reading}"]["stored_shadow_gap"] = rel(sh, people["cam_nlos_shadow"])
         notes.setdefault(f"{name}:{reading}", {})["person_light_removed"] = person_light_removed(room)
         flags += flag_rates(room, [float(m) for m in args.flag_multiples.split(",")], args.flag_captures, args.seed)
         for cond, mag, test, var in conditions(room, people, mags):

@@ -202,8 +202,8 @@ def cmd_fit(args: argparse.Namespace) -> None:
 
     if args.preset not in PRESETS:
         raise NlosError(f"--preset: expected one of {', '.join(PRESETS)}, got {args.preset!r}")
-    changes = {k: getattr(args, k) for k in ("people", "policy", "seed", "burst", "workers", "capture_preset")
-               if getattr(args, k) is not None}
+    changes = {k: getattr(args, k) for k in ("people", "policy", "seed", "burst", "workers", "capture_preset",
+                                             "pixel_footprint", "shadow_samples", "clothing") if getattr(args, k) is not None}
     if "burst" in changes:
         changes["burst_frames"] = changes.pop("burst")
     if args.no_projection:
@@ -222,6 +222,24 @@ def cmd_fit(args: argparse.Namespace) -> None:
              people_from=Path(args.people_from) if args.people_from else None)
 
 
+def _outputs_not_inputs(args: argparse.Namespace) -> None:
+    """Refuse --csv / --json / --plot naming a file predict reads (a frame, the background, the model)."""
+    from .apps.images import expand_inputs
+
+    reads = set()
+    for item in [*args.inputs, *([args.background] if args.background else [])]:
+        try:
+            reads |= {f.resolve() for f in expand_inputs([item])}
+        except NlosError:  # reported when the frames are read
+            pass
+    ck = Path(args.checkpoint)
+    reads |= {f.resolve() for f in (ck.rglob("*") if ck.is_dir() else [ck]) if f.is_file()}
+    for flag in ("csv", "json", "plot"):
+        out = getattr(args, flag)
+        if out and Path(out).resolve() in reads:
+            raise NlosError(f"--{flag}: {out} is one of this command's inputs; choose another file")
+
+
 def cmd_predict(args: argparse.Namespace) -> None:
     from .apps.images import load_frames
     from .apps.predict import predict, print_table, write_csv, write_json
@@ -232,14 +250,23 @@ def cmd_predict(args: argparse.Namespace) -> None:
     for flag in ("csv", "json", "plot"):
         if getattr(args, flag):
             output_file(getattr(args, flag), f"--{flag}")
+    _outputs_not_inputs(args)
     room = load_room_model(args.checkpoint)
     models = load_trained(args.checkpoint)
     if args.burst is not None and args.burst < 1:
         raise NlosError(f"--burst: expected a positive frame count, got {args.burst}")
-    frames = load_frames(args.inputs, models.image_shape, args.linear, args.fps).bursts(args.burst or 1)
+    loaded = load_frames(args.inputs, models.image_shape, args.linear, args.fps)
+    small = [hw for hw in loaded.native_shapes if hw[0] < models.image_shape[0] or hw[1] < models.image_shape[1]]
+    if small:
+        raise NlosError(f"inputs of {small[0][0]}x{small[0][1]} pixels are smaller than the network's "
+                        f"{models.image_shape[0]}x{models.image_shape[1]} input; give the camera's full frames")
+    frames = loaded.bursts(args.burst or 1)
     background = background_clipped = None
     if args.background:  # an empty-room burst: its frames averaged
         empty = load_frames([args.background], models.image_shape, args.linear)
+        if empty.native_shapes != loaded.native_shapes:
+            raise NlosError(f"--background: frames of {empty.native_shapes} (H, W) pixels, the captures "
+                            f"{loaded.native_shapes}: photograph the empty room with the same camera settings")
         background = empty.images.mean(axis=0)
         background_clipped = None if empty.clipped is None else empty.clipped.any(axis=0)
     if args.batch_size < 1:
@@ -377,6 +404,14 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--workers", type=int, help="processes rendering people (default 2)")
     f.add_argument("--capture-preset", help="capture variation to train for: tripod (default), rough, or ideal "
                                             "(photographs that match to the last bit: the recipe before drift)")
+    f.add_argument("--pixel-footprint", type=int, help="the person's light integrated over each pixel from N x N "
+                                                       "sub-samples (default 8); 0: at the pixel's centre (the "
+                                                       "recipe before it)")
+    f.add_argument("--shadow-samples", type=int, help="static points relaying the spot light each body blocks "
+                                                      "(default 4096); 0: the shadow term left out")
+    f.add_argument("--clothing", choices=("camera", "dataset"), help="clothing albedos training redresses people "
+                                                                     "in: camera (black to white, default) or "
+                                                                     "dataset (as rendered)")
     f.add_argument("--no-projection", action="store_true", help="train under the capture variation without "
                                                                  "projecting its directions out (an ablation)")
     f.add_argument("--preset", default="default", help="default, or tiny (tens of people: a first look, tests)")

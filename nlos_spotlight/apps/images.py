@@ -287,8 +287,11 @@ def expand_inputs(items: list[str]) -> list[Path]:
 
 
 def _check_finite(a: np.ndarray, source: str) -> None:
+    """Finite, and still finite once cast to the network's float32 (1.7e308 is finite in float64)."""
     if not np.all(np.isfinite(a)):
         raise NlosError(f"{source}: image contains NaN or infinity")
+    if a.size and float(np.abs(a).max()) > np.finfo(np.float32).max:
+        raise NlosError(f"{source}: image holds values beyond float32's range (|x| > 3.4e38)")
 
 
 def load_frames(items: list[str], shape: tuple[int, int], linear: bool = False,

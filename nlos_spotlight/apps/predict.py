@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -193,7 +194,18 @@ def write_csv(p: Predictions, path: Path) -> None:
 
 
 def write_json(p: Predictions, path: Path) -> None:
-    _replace(path, lambda tmp: tmp.write_text(json.dumps(p.to_dict(), indent=1)))
+    """The predictions as JSON; a non-finite number is written as null (JSON has no NaN)."""
+    _replace(path, lambda tmp: tmp.write_text(json.dumps(_finite(p.to_dict()), indent=1, allow_nan=False)))
+
+
+def _finite(x):
+    if isinstance(x, dict):
+        return {k: _finite(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_finite(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
 
 
 SHORT_NAMES = {"standing": "stand", "sitting": "sit", "crouching": "crouch", "hands_90": "h90",

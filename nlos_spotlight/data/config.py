@@ -49,6 +49,9 @@ class DatasetConfig:
     """Renderer: n x n sub-samples per pixel for the per-scene terms."""
     transport_pixel_samples: int = 1
     """Renderer: n x n sub-samples per pixel for the person terms."""
+    pixel_footprint: int = 0
+    """Renderer: n > 0 integrates the person terms over each pixel's footprint from n x n sub-samples
+    sharing out the body samples (``RenderSettings.pixel_footprint``), instead of the above."""
     spot_samples: int = 16
     """Renderer: projector rays per candidate spot."""
     person_samples: int = 3500
@@ -140,6 +143,8 @@ def validate(cfg: DatasetConfig, where: str) -> None:
         raise NlosError(f"{where}: person_quadrature must be one of {', '.join(QUADRATURES)}")
     if cfg.stored_spots_top < 0:
         raise NlosError(f"{where}: stored_spots_top must be at least 0")
+    if not 0 <= cfg.pixel_footprint <= 64:
+        raise NlosError(f"{where}: pixel_footprint must be 0 (off) to 64, got {cfg.pixel_footprint}")
 
 
 def memory_needed_bytes(cfg: DatasetConfig) -> int:
@@ -149,7 +154,8 @@ def memory_needed_bytes(cfg: DatasetConfig) -> int:
     pixels = cfg.resolution ** 2
     candidates = 2 * cfg.los_vertices
     direct = 2 * candidates * pixels * 3 * 4
-    subsamples = (cfg.pixel_samples ** 2 + cfg.transport_pixel_samples ** 2) * pixels * 200
+    person = cfg.pixel_footprint ** 2 if cfg.pixel_footprint > 0 else cfg.transport_pixel_samples ** 2
+    subsamples = (cfg.pixel_samples ** 2 + person) * pixels * 200
     return int(direct + subsamples)
 
 

@@ -75,6 +75,7 @@ class SceneBuilder:
         los = los_mesh(surfaces.mesh, surfaces.engine, scene.camera, self.cfg.los_vertices)
         settings = RenderSettings(pixel_samples=self.cfg.pixel_samples,
                                   transport_pixel_samples=self.cfg.transport_pixel_samples,
+                                  pixel_footprint=self.cfg.pixel_footprint,
                                   spot_samples=self.cfg.spot_samples, person_samples=self.cfg.person_samples,
                                   fuse=self.fuse, device="cpu")
         renderer = Renderer(scene, settings, aim_points=los.centroids())

@@ -79,6 +79,11 @@ class SceneTensors:
     albedo: torch.Tensor | None = None
     """(N, 3) the body's albedo each sample was rendered with (the person's light is linear in it:
     ``train.imaging.form_images``' albedo augmentation); None for scenes built in memory."""
+    shadow: torch.Tensor | None = None
+    """(N, H, W, 3) the spot light each person's body blocks (``nlos_shadow``, negative) under the one
+    spot ``shadow_spot`` (a room model's shadow step, ``fit/shadow.py``); None: left out."""
+    shadow_spot: int = -1
+    """The candidate ``shadow`` belongs to."""
     layers: object | None = None
     """The room's static light under its fixed spot at sub-pixel resolution
     (``render.variation.StaticLayers``): what the capture variation moves; None: ideal captures only."""
@@ -126,7 +131,7 @@ class SceneTensors:
 
 
 PER_SAMPLE = ("u", "v", "nlos_ambient", "target", "posture", "trajectory", "flash_nlos", "transport", "nuisance",
-              "albedo")
+              "albedo", "shadow")
 """SceneTensors fields indexed by sample (the rest describe the room)."""
 
 

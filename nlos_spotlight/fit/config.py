@@ -42,6 +42,18 @@ class FitConfig:
     """Body sampling rule ('faces' or 'mc', render/person.py)."""
     body_faces: int = 1500
     """Decimated body faces."""
+    pixel_footprint: int = 8
+    """The person's light integrated over each pixel as a camera does: n x n sub-samples sharing out
+    the body samples (``RenderSettings.pixel_footprint``; 0: at the pixel's centre, the recipe
+    before it, which room models learned as a pattern: benchmarks/robustness.py)."""
+    shadow_samples: int = 4096
+    """Static points relaying the spot light each person's body blocks (``nlos_shadow``, in every real
+    with-minus-without photograph), rendered under the chosen spot and added to every training
+    photograph (``fit/shadow.py``); 0 leaves it out (the recipe before it)."""
+    clothing: str = "camera"
+    """Clothing albedos training redresses people in (exact: the light is linear in albedo):
+    'camera' (0.03-0.9: black to white fabric, ``world.body.CAMERA_CLOTHING``) or 'dataset' (the
+    rendered people's own 0.08-0.65, the recipe before it)."""
     epochs: float = 60.0
     """Passes over the training people (copyroom, 3,000 people, held-out six-way posture / error:
     10 -> 63% / 11.0 cm, 30 -> 74% / 11.6 cm (benchmarks/fit_budget.py), 60 -> 86% / 11.2 cm (the
@@ -64,6 +76,13 @@ class FitConfig:
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, int) or v < lo:
                 raise NlosError(f"fit: {k} must be an integer of at least {lo}, got {v!r}")
+        if isinstance(self.shadow_samples, bool) or not isinstance(self.shadow_samples, int) \
+                or not 0 <= self.shadow_samples <= 1_000_000:
+            raise NlosError(f"fit: shadow_samples must be an integer from 0 (off) to 1000000, got {self.shadow_samples!r}")
+        if self.clothing not in ("camera", "dataset"):
+            raise NlosError(f"--clothing: expected 'camera' or 'dataset', got {self.clothing!r}")
+        if not 0 <= self.pixel_footprint <= 64 or isinstance(self.pixel_footprint, bool):
+            raise NlosError(f"fit: pixel_footprint must be an integer from 0 (off) to 64, got {self.pixel_footprint!r}")
         if self.people > 100_000 or self.resolution > 256 or self.burst_frames > 1000:
             raise NlosError(f"fit: absurd size (people {self.people}, resolution {self.resolution}, "
                             f"burst {self.burst_frames})")
@@ -91,11 +110,25 @@ class FitConfig:
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 
+    @classmethod
+    def from_record(cls, settings: dict) -> "FitConfig":
+        """The config a room model was fitted with (``fit.json``'s settings): a setting its version
+        did not have yet takes the value that version used (:data:`BEFORE`), not today's default."""
+        fields = {k: v for k, v in settings.items() if k in cls.__dataclass_fields__}
+        return cls(**{**BEFORE, **fields})
+
+
+BEFORE = {"capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "shadow_samples": 0,
+          "clothing": "dataset"}
+"""What a room model fitted before each of these settings existed did (see their docstrings)."""
+
 
 PRESETS = {
     "default": FitConfig(),
     # tests and a first look: tens of people, coarse bodies, seconds to a minute
     "tiny": FitConfig(name="tiny", people=40, heldout=10, transport_people=3, burst_frames=4, resolution=16,
-                      los_vertices=40, person_samples=96, person_quadrature="mc", body_faces=400, epochs=2.0,
+                      los_vertices=40, person_samples=96, person_quadrature="mc", body_faces=400, pixel_footprint=2,
+                      shadow_samples=128,
+                      epochs=2.0,
                       min_steps=20, workers=1),
 }

@@ -8,7 +8,8 @@ Steps, each resumable (a rerun with ``--resume`` skips what is finished and cont
    stored spots, rendered by ``workers`` processes (``SceneBuilder.build(part=...)``).
 3. **spot**: the policy's face among the candidates, and how to aim the projector at it.
    The room's static light under that spot at sub-pixel resolution is rendered once
-   (``ROOM_MODEL/layers.npz``, ``render.layers``): what camera motion and drift move.
+   (``ROOM_MODEL/layers.npz``, ``render.layers``): what camera motion and drift move. Then the
+   light each person's body blocks under that spot (``ROOM_MODEL/shadow/``, ``fit/shadow.py``).
 4. **train**: the seen-rooms recipe (``evaluate.seen``) with the fit's capture (a burst of
    ``burst_frames``) and its capture variation (``capture_preset``), best weights kept as
    ``ROOM_MODEL/final.pt``.
@@ -29,7 +30,7 @@ from .config import FitConfig
 FORMAT = "nlos-room-model/1"
 RESUMABLE_CHANGES = ("workers",)
 """Settings a resumed fit may change: the process count (the output is byte-identical)."""
-TRAINING_ONLY = ("capture_preset", "project_nuisance", "epochs", "min_steps", "workers")
+TRAINING_ONLY = ("capture_preset", "project_nuisance", "epochs", "min_steps", "workers", "shadow_samples", "clothing")
 """Settings that leave the room and its rendered people as they are (``--people-from`` may differ in them)."""
 
 
@@ -42,7 +43,7 @@ def dataset_config(cfg: FitConfig, room_dir: Path, extra_spots: list[int] | None
                          samples_per_scene=cfg.samples, transport_samples_per_scene=cfg.transport_people,
                          trajectories_per_test_scene=0, trajectories_per_train_scene=0, resolution=cfg.resolution,
                          los_vertices=cfg.los_vertices, body_faces=cfg.body_faces, person_samples=cfg.person_samples,
-                         person_quadrature=cfg.person_quadrature, room=str(Path("..") / room_dir.name),
+                         person_quadrature=cfg.person_quadrature, pixel_footprint=cfg.pixel_footprint, room=str(Path("..") / room_dir.name),
                          extra_spots=list(extra_spots or []))
 
 
@@ -218,6 +219,13 @@ def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = F
     console.print(spot["explain"])
     layers = room_layers(out, spot["aim"])  # the static light the capture variation moves
     clock.lap("spot_s")
+    if cfg.shadow_samples > 0:  # the light each body blocks, under the chosen spot
+        from .shadow import render_shadows
+
+        console.rule("3/5 spot: shadow")
+        render_shadows(out, cfg, spot, progress)
+        split = room_split(out, cfg, ["normals"], shadow_spot=int(spot["face"]))
+        clock.lap("shadow_s")
     console.rule("4/5 train")
     result = train_room(cfg, out, progress, split, layers)
     if result.spots[0] != spot["face"]:

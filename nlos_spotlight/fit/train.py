@@ -26,8 +26,10 @@ def fit_train_config(cfg: FitConfig, out: Path | None = None) -> TrainConfig:
     variation (projected out of the photographs unless 'ideal') and spot policy."""
     tc = seen_config(1, seed=cfg.seed, noise=True, policy=cfg.policy)
     drift = cfg.capture_preset != "ideal" and cfg.project_nuisance
+    camera = cfg.clothing == "camera"  # redressed in real clothing's range; 'dataset': as rendered, no augmentation
     return dataclasses.replace(tc, name="room-model", sensor=capture_overrides(out, cfg), variation=cfg.capture_preset,
-                               net=dataclasses.replace(tc.net, project_nuisance=drift))
+                               net=dataclasses.replace(tc.net, project_nuisance=drift), albedo_augment=camera,
+                               clothing="camera" if camera else "dataset")
 
 
 def room_layers(out: Path, aim):
@@ -53,13 +55,30 @@ def with_layers(room: RoomSplit, layers) -> RoomSplit:
     return RoomSplit(put(room.pool), put(room.val), put(room.test))
 
 
-def room_split(out: Path, cfg: FitConfig, features: list[str]) -> RoomSplit:
+def room_split(out: Path, cfg: FitConfig, features: list[str], shadow_spot: int | None = None) -> RoomSplit:
     """The room's image samples split into training pool, validation and test (``split_room``):
-    ``heldout`` test and as many validation people, spread over the generation order."""
+    ``heldout`` test and as many validation people, spread over the generation order;
+    ``shadow_spot``: with the people's shadow term under that spot (``fit/shadow.py``)."""
     from ..data.tensors import load_split
 
     s, = load_split(Path(out) / "data", "train", features, samples="images")
+    if shadow_spot is not None:
+        s = with_shadow(s, out, cfg, shadow_spot)
     return split_room(s, period=split_period(s.num_samples, cfg.heldout), max_eval=cfg.heldout)
+
+
+def with_shadow(s, out: Path, cfg: FitConfig, spot: int):
+    """The room's image samples ``s`` with their stored shadow term under ``spot``."""
+    import torch
+
+    from ..errors import NlosError
+    from .shadow import load_shadows
+
+    shadow = torch.as_tensor(load_shadows(out, cfg), dtype=s.v.dtype)
+    if shadow.shape[0] != s.num_samples or shadow.shape[1:] != s.nlos_ambient.shape[1:]:
+        raise NlosError(f"{out}/shadow: {shadow.shape[0]} people's shadow for {s.num_samples} people; "
+                        "rerun nlos fit with --resume")
+    return dataclasses.replace(s, shadow=shadow, shadow_spot=int(spot))
 
 
 def split_period(samples: int, heldout: int) -> int:
@@ -78,7 +97,8 @@ def train_room(cfg: FitConfig, out: Path, progress: bool, split: RoomSplit | Non
 
         models = load_trained(cfg.checkpoint)
         ien_state, features, ien_cfg = models.ien.state_dict(), list(models.config.ien_features), models.config.ien
-    room = split if split is not None and cfg.policy != "ien" else room_split(out, cfg, features)
+    shadow = split.pool.shadow_spot if split is not None and split.pool.shadow is not None else None
+    room = split if split is not None and cfg.policy != "ien" else room_split(out, cfg, features, shadow)
     if layers is not None:
         room = with_layers(room, layers)
     tc, spots = fit_train_config(cfg, out), None

@@ -132,8 +132,8 @@ def compile_network(net: nn.Module, shape: tuple[int, int], backend: str = "torc
         device = next(model.parameters()).device
 
         def run(images, background=None, clipped=None):
-            t = lambda a, dt=torch.float32: None if a is None else torch.as_tensor(np.ascontiguousarray(a), dtype=dt,
-                                                                                   device=device)
+            # a copy: the caller's arrays may be read-only views (torch warns on those)
+            t = lambda a, dt=torch.float32: None if a is None else torch.tensor(np.asarray(a), dtype=dt, device=device)
             with torch.inference_mode():
                 pos, logits = model(t(images), t(background), t(clipped, torch.bool))
             return pos.cpu().numpy(), logits.cpu().numpy()

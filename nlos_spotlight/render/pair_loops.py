@@ -31,6 +31,15 @@ from .rays import EPS
 
 
 @njit(cache=True, inline="always")
+def _bs(akey, stride, a, n):
+    """The b that a pairs with, as range bounds: all, or with footprint sampling (``stride`` > 0,
+    ``akey[a]`` >= 0) every ``stride``-th from ``akey[a]``: the body samples shared out to a's slot."""
+    if stride <= 0 or akey[a] < 0:
+        return 0, n, 1
+    return akey[a], n, stride
+
+
+@njit(cache=True, inline="always")
 def _needs(pa, na, front, o, nb, closed, a, b) -> bool:
     """The pair (a, b) can carry light: a faces b on its ``front`` side, and b's open side faces a."""
     dx, dy, dz = o[b, 0] - pa[a, 0], o[b, 1] - pa[a, 1], o[b, 2] - pa[a, 2]
@@ -40,12 +49,13 @@ def _needs(pa, na, front, o, nb, closed, a, b) -> bool:
 
 
 @njit(cache=True, parallel=True)
-def need_counts(pa, na, front, o, nb, closed):
-    """(Na,) int64: how many body samples each point a exchanges light with."""
+def need_counts(pa, na, front, o, nb, closed, akey, stride):
+    """(Na,) int64: how many body samples each point a exchanges light with (of those :func:`_bs` gives)."""
     out = np.zeros(pa.shape[0], np.int64)
     for a in prange(pa.shape[0]):
         c = 0
-        for b in range(o.shape[0]):
+        lo, hi, step = _bs(akey, stride, a, o.shape[0])
+        for b in range(lo, hi, step):
             if _needs(pa, na, front, o, nb, closed, a, b):
                 c += 1
         out[a] = c
@@ -53,7 +63,7 @@ def need_counts(pa, na, front, o, nb, closed):
 
 
 @njit(cache=True, parallel=True)
-def shadow_rays(pa, na, front, o, nb, closed, start):
+def shadow_rays(pa, na, front, o, nb, closed, akey, stride, start):
     """The shadow rays of the pairs that need one, a-major: float32 origins (M, 3), unit
     directions (M, 3), lengths (M,), and the body sample of each (M,) int32. ``start`` (Na + 1,):
     the exclusive prefix sum of :func:`need_counts`. Both ends are pushed off their surfaces as in
@@ -65,7 +75,8 @@ def shadow_rays(pa, na, front, o, nb, closed, start):
     idx = np.empty(m, np.int32)
     for a in prange(pa.shape[0]):
         k = start[a]
-        for b in range(o.shape[0]):
+        lo, hi, step = _bs(akey, stride, a, o.shape[0])
+        for b in range(lo, hi, step):
             if not _needs(pa, na, front, o, nb, closed, a, b):
                 continue
             dx, dy, dz = o[b, 0] - pa[a, 0], o[b, 1] - pa[a, 1], o[b, 2] - pa[a, 2]
@@ -187,6 +198,35 @@ def gather_weights(rp, rn, to_cam, cos_c, alpha, gl_row, n_gl, o, nb, area, star
     return wf, wb, sf, sb, backs.any()
 
 
+@njit(cache=True, parallel=True)
+def gather_sparse(rp, rn, to_cam, cos_c, kd, ks, alpha, glossy, o, nb, area, start, idx, visible, front, back):
+    """The radiance (P, C) each camera sub-sample p receives from the body over its unblocked pairs:
+    ``kd_p / pi sum_n G V a_n L_n + ks_p sum_n G V a_n GGX L_n``, L_n the front or back radiance
+    (N, C) of body sample n by the side facing p, channels c taking colour c % 3 of kd and ks.
+    The same sums as :func:`gather_weights` followed by its matrix products, without the dense
+    (P, N) weights: for footprint sampling, where each sub-sample pairs with 1 / n^2 of the body."""
+    out = np.zeros((rp.shape[0], front.shape[1]))
+    for p in prange(rp.shape[0]):
+        for k in range(start[p], start[p + 1]):
+            if not visible[k]:
+                continue
+            b = idx[k]
+            dx, dy, dz, r2, cos_a, cos_b = _pair(rp, rn, o, nb, p, b)
+            v = abs(cos_a) * abs(cos_b) / r2 * area[b]
+            light = front if cos_b > 0 else back
+            spec = 0.0
+            if glossy[p]:
+                spec = _ggx_lobe(rn, p, dx, dy, dz, to_cam[p, 0], to_cam[p, 1], to_cam[p, 2], cos_a, cos_c[p], alpha[p])
+            for c in range(front.shape[1]):
+                out[p, c] += (kd[p, c % 3] / math.pi + ks[p, c % 3] * spec) * v * light[b, c]
+    return out
+
+
+def no_keys(na: int, nb: int) -> tuple[np.ndarray, int]:
+    """(akey, stride) under which every a pairs with every b (:func:`_bs`)."""
+    return np.full(na, -1, np.int64), 0
+
+
 def set_threads(n: int) -> None:
     """Loop threads as torch's (a process told to use one thread keeps to one)."""
     numba.set_num_threads(max(1, min(n, numba.config.NUMBA_NUM_THREADS)))
@@ -203,4 +243,4 @@ def pair_start(counts: np.ndarray) -> np.ndarray:
     return np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
 
 
-__all__ = ["gather_weights", "group_runs", "need_counts", "pair_start", "radiosity", "set_threads", "shadow_rays"]
+__all__ = ["gather_sparse", "gather_weights", "group_runs", "need_counts", "no_keys", "pair_start", "radiosity", "set_threads", "shadow_rays"]

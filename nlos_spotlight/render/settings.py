@@ -14,6 +14,11 @@ class RenderSettings:
     """n: n x n stratified sub-samples per pixel for the per-scene terms (direct, ambient, interreflection)."""
     transport_pixel_samples: int = 2
     """n x n sub-samples per pixel for person -> pixel transport (the per-person cost)."""
+    pixel_footprint: int = 0
+    """n > 0: the person's light integrated over each pixel's footprint from n x n sub-samples that
+    share out the body samples (and the shadow's static points) among them, each pair once, at about
+    the cost of one sub-sample (``Renderer`` docstring); 0: ``transport_pixel_samples`` sub-samples
+    each see every body sample."""
     spot_samples: int = 64
     """Projector rays per candidate spot (equal solid angle)."""
     person_samples: int = 512

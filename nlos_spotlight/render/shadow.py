@@ -39,6 +39,10 @@ if TYPE_CHECKING:
     from .transport import Renderer
 
 
+STATIC_CACHE_PAIRS = 1 << 26
+"""Largest (camera sub-sample, h) visibility a renderer keeps (a byte a pair: 64 MB)."""
+
+
 def segments_cross_box(a: torch.Tensor, b: torch.Tensor, lo: torch.Tensor, hi: torch.Tensor) -> torch.Tensor:
     """(Na, Nb) bool: the segment a_i -> b_j meets the axis-aligned box [lo, hi] (slab test)."""
     d = b.unsqueeze(0) - a.unsqueeze(1)
@@ -63,6 +67,7 @@ class SpotShadow:
         self.h = r.static.shade(face, bary).torch(r.device, r.dtype)
         self.area = r._t(area)
         self.rho = (self.h["kd"] + self.h["ks"]) / math.pi
+        self._vis: dict[int, torch.Tensor] = {}  # group -> static visibility (``_static_visibility``)
 
     def image(self, y: torch.Tensor, person: Person, t: torch.Tensor) -> torch.Tensor:
         """(H, W, 3) ``nlos_shadow`` (negative) of spot vector ``y`` and the body moved by ``t``."""
@@ -78,14 +83,17 @@ class SpotShadow:
         lit = (src["normal"] * to_proj).sum(-1, keepdim=True)
         rec = r.recv_t
         cos_c = (rec.pts["normal"] * rec.to_cam).sum(-1, keepdim=True)
+        groups = self._groups(rec)
         # which h matter: a blocked first leg, or a second leg toward a camera point through the box
         geo1 = pair_geometry(src["pos"], src["normal"], h["pos"], h["normal"])
         need1 = geo1.cos_a * lit > 0
         cross1 = need1 & segments_cross_box(src["pos"], h["pos"], lo, hi)
         cross2 = torch.zeros(len(h["pos"]), dtype=torch.bool, device=r.device)
-        for a in range(0, len(rec.pixel), r.settings.chunk):
-            sl = slice(a, a + r.settings.chunk)
-            cross2 |= segments_cross_box(rec.pts["pos"][sl], h["pos"], lo, hi).any(0)
+        crossing = []  # per group: (its sub-samples, its h) segments through the body's box
+        for rows, hs in groups:
+            c = torch.cat([segments_cross_box(rec.pts["pos"][sl], h["pos"][hs], lo, hi) for sl in self._chunks(rows)])
+            crossing.append(c)
+            cross2[hs] |= c.any(0)
         keep = torch.nonzero(cross1.any(0) | cross2).flatten()
         if len(keep) == 0:
             return torch.zeros(*r.shape, 3, device=r.device, dtype=r.dtype)
@@ -105,21 +113,66 @@ class SpotShadow:
         l_rest = rho * c_sides.sum(1) - l_blk  # what still reaches h, which the body may block on the way out
         out = torch.zeros(len(rec.pixel), 3, device=r.device, dtype=r.dtype)
         ak = self.area[keep]
-        for a in range(0, len(rec.pixel), r.settings.chunk):
-            sl = slice(a, a + r.settings.chunk)
-            out[sl] = self._second_leg(body, rec, sl, cos_c[sl], hk, ak, l_blk, l_rest, lo, hi)
-        return -r._pixels(out, rec)
+        at = torch.full((len(h["pos"]),), -1, dtype=torch.long, device=r.device)
+        at[keep] = torch.arange(len(keep), device=r.device)  # h index -> its place among the kept
+        for g, (rows, hs) in enumerate(groups):
+            sel = at[hs] >= 0
+            if not sel.any():
+                continue
+            kk = at[hs][sel]  # the kept h this group's sub-samples see
+            hg = {k: v[kk] for k, v in hk.items()}
+            vis = self._static_visibility(g, rows, hs, cos_c)
+            cross = crossing[g][:, sel]
+            for a in range(0, len(rows), r.settings.chunk):
+                b = slice(a, a + r.settings.chunk)
+                out[rows[b]] = self._second_leg(body, rec, rows[b], cos_c[rows[b]], hg, ak[kk], l_blk[:, kk],
+                                                l_rest[:, kk], cross[b], None if vis is None else vis[b][:, sel])
+        return -r._pixels(rec.scale(out), rec)
 
-    def _second_leg(self, body, rec, sl, cos_c, hk, ak, l_blk, l_rest, lo, hi) -> torch.Tensor:
-        """(P, 3) radiance toward the camera from camera points ``sl`` of the light the body stops."""
+    def _static_visibility(self, g: int, rows: torch.Tensor, hs: torch.Tensor, cos_c) -> torch.Tensor | None:
+        """(rows, hs) static visibility V_S(h, x_p) of group ``g`` where x_p faces h, cast once per
+        renderer (it does not depend on the person); None where it would hold over
+        :data:`STATIC_CACHE_PAIRS` pairs (then each person casts its own)."""
+        r = self.r
+        if g in self._vis:
+            return self._vis[g].to(r.dtype)
+        if len(rows) * len(hs) > STATIC_CACHE_PAIRS:
+            return None
+        hp, hn = self.h["pos"][hs], self.h["normal"][hs]
+        parts = []
+        for sl in self._chunks(rows):
+            geo = pair_geometry(r.recv_t.pts["pos"][sl], r.recv_t.pts["normal"][sl], hp, hn)
+            need = geo.cos_a * cos_c[sl] > 0
+            parts.append(r._visible(r.static.engine, r.recv_t.pts["pos"][sl], r.recv_t.pts["normal"][sl], hp, hn,
+                                    need, geo) > 0)
+        self._vis[g] = torch.cat(parts)
+        return self._vis[g].to(r.dtype)
+
+    def _groups(self, rec) -> list[tuple[torch.Tensor, torch.Tensor]]:
+        """(camera sub-samples, points h) that exchange light: all with all, or under footprint
+        sampling each slot's sub-samples with the h shared out to that slot (``_Receivers.share``)."""
+        dev = self.r.device
+        if rec.key is None:
+            return [(torch.arange(len(rec.pixel), device=dev), torch.arange(len(self.h["pos"]), device=dev))]
+        slot = rec.share(len(self.h["pos"]), dev)
+        return [(torch.nonzero(rec.key == k).flatten(), torch.nonzero(slot == k).flatten()) for k in range(rec.n_sub)]
+
+    def _chunks(self, rows: torch.Tensor):
+        return torch.split(rows, self.r.settings.chunk)
+
+    def _second_leg(self, body, rec, sl, cos_c, hk, ak, l_blk, l_rest, cross, vs_static) -> torch.Tensor:
+        """(P, 3) radiance toward the camera from camera points ``sl`` of the light the body stops;
+        ``cross``: their segments to ``hk`` that cross the body's box; ``vs_static``: their static
+        visibility if cached (:meth:`_static_visibility`), else None."""
         r = self.r
         rp, rn = rec.pts["pos"][sl], rec.pts["normal"][sl]
         geo = pair_geometry(rp, rn, hk["pos"], hk["normal"])
         need = geo.cos_a * cos_c > 0
         # rays only where some light is lost: h with blocked light, or a leg through the body's box
-        cross = need & segments_cross_box(rp, hk["pos"], lo, hi)
+        cross = need & cross
         need = need & ((l_blk.sum((0, 2)) > 0).unsqueeze(0) | cross)
-        vs = r._visible(r.static.engine, rp, rn, hk["pos"], hk["normal"], need)
+        vs = r._visible(r.static.engine, rp, rn, hk["pos"], hk["normal"], need, geo) if vs_static is None \
+            else vs_static * need
         wgt = geo.g * vs * ak
         lost = wgt * self._body_blocks(body, rp, rn, hk["pos"], hk["normal"], cross & (vs > 0))
         side = (geo.cos_b > 0).to(r.dtype)  # the side of h that faces x_p

@@ -40,6 +40,8 @@ from .spot import cone_directions, spot_profile
 from .settings import RENDER_PRESETS, RenderSettings  # noqa: F401  (re-exported beside the renderer)
 from .surface import StaticSurfaces, SurfacePoints
 
+FOOTPRINT_SEED = 20_241
+"""Seed of the pixels' fixed slot offsets in footprint sampling (images are deterministic)."""
 INTER_CACHE_SPOTS = 8
 """Largest support of y whose interreflection is read from the per-candidate images."""
 INTER_CACHE_SIZE = 256
@@ -74,6 +76,17 @@ class _Receivers:
     n_sub: int
     glossy: torch.Tensor
     surf: SurfacePoints
+    key: torch.Tensor | None = None
+    """(P,) int64 slot of each sub-sample among its pixel's ``n_sub`` (footprint sampling), else None."""
+
+    def share(self, n: int, device) -> torch.Tensor:
+        """(n,) the slot each of n sources (body samples, static points) is shared out to: every
+        ``n_sub``-th source to the same sub-sample of each pixel (a thinned copy of the sources)."""
+        return torch.arange(n, device=device) % self.n_sub
+
+    def scale(self, per_sample: torch.Tensor) -> torch.Tensor:
+        """Footprint sampling: a sub-sample saw 1 / ``n_sub`` of the sources, so it counts ``n_sub`` times."""
+        return per_sample * self.n_sub if self.key is not None else per_sample
 
 
 class Renderer:
@@ -98,8 +111,11 @@ class Renderer:
         cam = scene.camera
         self.shape = (cam.height, cam.width)
         self.recv = self._receivers(s.pixel_samples)
-        self.recv_t = self.recv if s.transport_pixel_samples == s.pixel_samples \
-            else self._receivers(s.transport_pixel_samples)
+        if s.pixel_footprint > 0:
+            self.recv_t = self._receivers(s.pixel_footprint, footprint=True)
+        else:
+            self.recv_t = self.recv if s.transport_pixel_samples == s.pixel_samples \
+                else self._receivers(s.transport_pixel_samples)
         self._spot_samples()
         self.D = self._direct_matrix()
         self.ambient_image = self._ambient()
@@ -109,16 +125,25 @@ class Renderer:
     def _t(self, x) -> torch.Tensor:
         return torch.as_tensor(x, device=self.device, dtype=self.dtype)
 
-    def _receivers(self, n: int) -> _Receivers:
+    def _receivers(self, n: int, footprint: bool = False) -> _Receivers:
+        """Camera sub-samples, n x n a pixel; ``footprint``: with the slots of footprint sampling,
+        each pixel's turned by a fixed random offset so that neighbouring pixels pair their
+        sub-samples with different thinned sources."""
         dirs, origin = pixel_rays(self.scene.camera, n)
         flat = dirs.reshape(-1, 3)
         hit, surf = self.static.trace(np.broadcast_to(origin, flat.shape), flat)
         if not hit.any():
             raise NlosError("camera: sees no geometry (check position, look_at and fov_deg)")
-        pixel = np.flatnonzero(hit) // (n * n)
+        index = np.flatnonzero(hit)
+        pixel = index // (n * n)
         to_cam = -flat[hit]
+        key = None
+        if footprint:
+            turn = np.random.default_rng(FOOTPRINT_SEED).integers(n * n, size=self.shape[0] * self.shape[1])
+            key = torch.as_tensor((index % (n * n) + turn[pixel]) % (n * n), device=self.device)
         return _Receivers(surf.torch(self.device, self.dtype), self._t(to_cam),
-                          torch.as_tensor(pixel, device=self.device), n * n, torch.as_tensor(surf.glossy, device=self.device), surf)
+                          torch.as_tensor(pixel, device=self.device), n * n, torch.as_tensor(surf.glossy, device=self.device),
+                          surf, key)
 
     def _spot_samples(self) -> None:
         """LOS samples x_s of every candidate: where the projector's rays land, and their flux."""
@@ -315,10 +340,12 @@ class Renderer:
         return self.settings.pair_loops and self.device.type == "cpu" and not (
             torch.is_grad_enabled() and any(t.requires_grad for t in tensors))
 
-    def _loop_pairs(self, pa, na, front, o, nb, closed: bool, rays: SceneRays):
-        """(start, body index, visible) of the pairs that carry light, a-major (``pair_loops``)."""
+    def _loop_pairs(self, pa, na, front, o, nb, closed: bool, rays: SceneRays, keys=None):
+        """(start, body index, visible) of the pairs that carry light, a-major (``pair_loops``);
+        ``keys`` (a's slots, n): a pairs only with the b shared out to its slot (footprint sampling)."""
         pair_loops.set_threads(torch.get_num_threads())
-        args = [x.detach().numpy() for x in (pa, na, front.reshape(-1), o, nb)] + [bool(closed)]
+        keys = pair_loops.no_keys(len(pa), len(o)) if keys is None else (keys[0].cpu().numpy(), int(keys[1]))
+        args = [x.detach().numpy() for x in (pa, na, front.reshape(-1), o, nb)] + [bool(closed), *keys]
         start = pair_loops.pair_start(pair_loops.need_counts(*args))
         org, dirs, length, idx = pair_loops.shadow_rays(*args, start)
         return start, idx, ~rays.occluded_rays(org, dirs, length)
@@ -337,7 +364,15 @@ class Renderer:
         """One block of sub-samples of :meth:`_gather` over the unblocked pairs only: (P, C) radiance."""
         r = self.recv_t
         rp, rn = r.pts["pos"][sl], r.pts["normal"][sl]
-        start, idx, vis = self._loop_pairs(rp, rn, cos_c, o, pts["normal"], person.closed, rays)
+        keys = None if r.key is None else (r.key[sl], r.n_sub)  # b shared to slot k: k, k + n_sub, ... (``share``)
+        start, idx, vis = self._loop_pairs(rp, rn, cos_c, o, pts["normal"], person.closed, rays, keys)
+        if keys is not None:  # footprint sampling: few pairs a sub-sample, summed without dense weights
+            np_ = lambda x: x.detach().numpy()
+            rad = pair_loops.gather_sparse(np_(rp), np_(rn), np_(r.to_cam[sl]), np_(cos_c.reshape(-1)),
+                                           np_(r.pts["kd"][sl]), np_(r.pts["ks"][sl]), np_(r.pts["alpha"][sl]),
+                                           np_(r.glossy[sl]), np_(o), np_(pts["normal"]), np_(pts["area"]), start, idx,
+                                           vis, np_(front), np_(back))
+            return self._t(rad)
         gl = r.glossy[sl].numpy()
         gl_row = np.where(gl, np.cumsum(gl) - 1, -1)
         wf, wb, sf, sb, backs = pair_loops.gather_weights(
@@ -479,6 +514,8 @@ class Renderer:
                 out[sl] = self._gather_loops(sl, cos_c, o, pts, person, rays, front, back)
                 continue
             need = self.kernels("pair_need", rp, rn, cos_c, o, pts["normal"], person.closed)
+            if r.key is not None:
+                need = need & (r.key[sl].unsqueeze(1) == r.share(len(o), self.device).unsqueeze(0))
             vis = self._visible(rays, rp, rn, o, pts["normal"], need)
             wf, wb = self.kernels("gather_weights", rp, rn, o, pts["normal"], vis, wa)
             rad = r.pts["kd"][sl].repeat(1, front.shape[1] // 3) / math.pi * (wf @ front + wb @ back)
@@ -490,4 +527,4 @@ class Renderer:
                 rad = rad.clone()
                 rad[gl] = rad[gl] + ks * ((wf[gl] * spec) @ front + (wb[gl] * spec) @ back)
             out[sl] = rad
-        return self._pixels(out, r)
+        return self._pixels(r.scale(out), r)

@@ -74,6 +74,9 @@ class TrainConfig:
     albedo_augment: bool = False
     """Training only: every drawn person is dressed afresh in a clothing albedo from the dataset's own
     distribution (``world.body.clothing_albedo``), exact because the person's light is linear in it."""
+    clothing: str = "dataset"
+    """The albedo distribution of ``albedo_augment`` (``world.body.CLOTHING_RANGES``): 'dataset' (the
+    rendered people's own) or 'camera' (black to white fabric)."""
     variation: str = "ideal"
     """Capture variation (a ``render.variation`` preset: ideal, tripod, rough) in every training and
     validation photograph: the person capture and its empty-room capture differ as real ones do

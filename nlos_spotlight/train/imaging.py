@@ -48,8 +48,19 @@ def form_parts(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor | None, mode:
             raise NlosError(f"{s.scene_dir or 'scene'}: the dataset stores no flash images (regenerate it)")
         return lit * s.flash_nlos[idx], person_ambient, s.flash_direct + s.ambient
     static = torch.einsum("t,thwc->hwc", y, s.direct) + s.ambient
-    nlos = torch.einsum("t,btr,brhwc->bhwc", y, s.u[idx], s.v[idx])
-    return lit * nlos, person_ambient, static
+    nlos = lit * torch.einsum("t,btr,brhwc->bhwc", y, s.u[idx], s.v[idx])
+    if s.shadow is not None:  # blocked spot light: scales with the spot, not with the clothing
+        _check_shadow(s, y)
+        nlos = nlos + y[s.shadow_spot] * s.shadow[idx].to(nlos.dtype)
+    return nlos, person_ambient, static
+
+
+def _check_shadow(s: SceneTensors, y: torch.Tensor) -> None:
+    """NlosError when y lights a spot other than the one whose blocked light ``s.shadow`` holds."""
+    off = torch.nonzero(y.detach() != 0).flatten().tolist()
+    if any(t != s.shadow_spot for t in off):
+        raise NlosError(f"{s.scene_dir or 'scene'}: the people's shadow term is stored for spot {s.shadow_spot} "
+                        f"only, not for spot {[t for t in off if t != s.shadow_spot][0]}")
 
 
 def drifted_images(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor, albedo: torch.Tensor | None,

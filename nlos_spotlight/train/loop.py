@@ -261,7 +261,8 @@ class Trainer:
         ills = self.illuminations(scenes, train)
         photos = []
         for (s, idx), (y, mode, _) in zip(parts, ills):
-            albedo = clothing_albedo(len(idx), self.gen, self.device) if train and self.cfg.albedo_augment else None
+            albedo = clothing_albedo(len(idx), self.gen, self.device, self.cfg.clothing) \
+                if train and self.cfg.albedo_augment else None
             photos.append(capture(s, idx, y, mode, self.sensor, self.gen, self.cfg.sensor_noise, self.cfg.net,
                                   albedo, self.variation))
         cat = lambda name: torch.cat([getattr(p, name) for p in photos]) if getattr(photos[0], name) is not None \
@@ -420,6 +421,10 @@ def check_config(cfg: TrainConfig) -> None:
     for name in ("spot_steps", "patience"):
         if getattr(cfg, name) < 0:
             raise NlosError(f"config: {name} must be at least 0, got {getattr(cfg, name)}")
+    from ..world.body import CLOTHING_RANGES
+
+    if cfg.clothing not in CLOTHING_RANGES:
+        raise NlosError(f"config: clothing must be one of {', '.join(CLOTHING_RANGES)}, got {cfg.clothing!r}")
     if cfg.select not in ("loss", "metrics", "last"):
         raise NlosError(f"config: select must be 'loss', 'metrics' or 'last', got {cfg.select!r}")
     if cfg.lr_schedule not in ("constant", "cosine"):

@@ -210,15 +210,25 @@ def _clothing_albedo(rng: np.random.Generator) -> np.ndarray:
     return np.clip(brightness * tint / tint.mean(), *CLOTHING_ALBEDO_RANGE)
 
 
-def clothing_albedo(n: int, generator: "torch.Generator | None" = None, device="cpu") -> "torch.Tensor":
+CAMERA_CLOTHING = ((0.03, 0.9), (0.02, 0.95))
+"""Brightness and channel range of clothing a camera meets: black fabric (diffuse reflectance
+0.02-0.05) to white cotton (0.8-0.9). The rendered people's own range (:data:`CLOTHING_BRIGHTNESS`)
+leaves both ends out; room models are trained on this one (``nlos fit --clothing camera``)."""
+CLOTHING_RANGES = {"dataset": (CLOTHING_BRIGHTNESS, CLOTHING_ALBEDO_RANGE), "camera": CAMERA_CLOTHING}
+"""Named clothing distributions of :func:`clothing_albedo`."""
+
+
+def clothing_albedo(n: int, generator: "torch.Generator | None" = None, device="cpu",
+                    kind: str = "dataset") -> "torch.Tensor":
     """(n, 3) clothing albedos drawn as :func:`_clothing_albedo` draws one, in torch (training-time
-    albedo augmentation draws from the dataset's own distribution with the run's generator)."""
+    albedo augmentation draws with the run's generator), from the :data:`CLOTHING_RANGES` ``kind``:
+    the dataset's own distribution or the wider one of real clothing."""
     import torch
 
-    lo, hi = CLOTHING_BRIGHTNESS
+    (lo, hi), clip = CLOTHING_RANGES[kind]
     brightness = lo + (hi - lo) * torch.rand(n, 1, generator=generator, device=device)
     tint = torch.exp(CLOTHING_TINT_SIGMA * torch.randn(n, 3, generator=generator, device=device))
-    return (brightness * tint / tint.mean(1, keepdim=True)).clamp(*CLOTHING_ALBEDO_RANGE)
+    return (brightness * tint / tint.mean(1, keepdim=True)).clamp(*clip)
 
 
 def build_bucket(params: BodyParams) -> tuple[int, ...]:

@@ -211,7 +211,7 @@ def test_numbered_sequence_plays_in_numeric_order(ckpt, tmp_path):
     seq = tmp_path / "seq"
     seq.mkdir()
     for k in (1, 2, 10, 11, 3):
-        Image.fromarray(np.full((4, 4, 3), 20 * k, np.uint8)).save(seq / f"frame{k}.png")
+        Image.fromarray(np.full((RES, RES, 3), 20 * k, np.uint8)).save(seq / f"frame{k}.png")
     names = [p.name for p in expand_inputs([str(seq)])]
     assert names == ["frame1.png", "frame2.png", "frame3.png", "frame10.png", "frame11.png"]
     assert [p.name for p in expand_inputs([str(seq / "frame%d.png")])] == names
@@ -340,3 +340,28 @@ def test_a_checkpoint_that_runs_code_is_refused_before_it_runs(ckpt, tmp_path, c
     assert "\n" not in str(info.value) and not marker.exists()
     _fails(capsys, ["predict", str(tmp_path / "evil.pt"), str(tmp_path / "x.npy")], "loading it could run code")
     assert not marker.exists()
+
+
+def test_outputs_never_overwrite_inputs_and_odd_frames_are_refused(ckpt, tmp_path, capsys):
+    """Issue 36: --csv naming an input, a float32 overflow, a background of another size and
+    frames smaller than the network's input each fail in one line, touching nothing."""
+    frame = tmp_path / "frame.npy"
+    np.save(frame, np.full((RES, RES, 3), 0.2))
+    before = frame.read_bytes()
+    _fails(capsys, ["predict", str(ckpt), str(frame), "--csv", str(frame)], "is one of this command's inputs")
+    _fails(capsys, ["predict", str(ckpt), str(tmp_path), "--json", str(frame)], "is one of this command's inputs")
+    assert frame.read_bytes() == before
+    np.save(tmp_path / "huge.npy", np.full((RES, RES, 3), 1.7e308))
+    _fails(capsys, ["predict", str(ckpt), str(tmp_path / "huge.npy")], "beyond float32's range")
+    np.save(tmp_path / "wide.npy", np.full((RES, 2 * RES, 3), 0.2))
+    _fails(capsys, ["predict", str(ckpt), str(frame), "--background", str(tmp_path / "wide.npy")],
+           "photograph the empty room with the same camera settings")
+    np.save(tmp_path / "tiny.npy", np.full((1, 1, 3), 0.2))
+    _fails(capsys, ["predict", str(ckpt), str(tmp_path / "tiny.npy")], "smaller than the network's")
+
+
+def test_json_holds_no_nan():
+    from nlos_spotlight.apps.predict import _finite
+
+    got = json.loads(json.dumps(_finite({"x": [1.0, float("nan")], "y": {"z": float("inf")}}), allow_nan=False))
+    assert got == {"x": [1.0, None], "y": {"z": None}}

@@ -273,3 +273,26 @@ def test_killed_fit_resumes_to_the_same_model(fitted, room_dir, tmp_path):
     sha = lambda d: json.loads((d / "data" / "manifest.json").read_text())["content_sha256"]
     assert sha(dest) == sha(out)
     assert json.loads((dest / "report.json").read_text())["heldout"] == report["heldout"]
+
+
+def test_shadow_step_stores_each_persons_blocked_light(fitted):
+    """``ROOM_MODEL/shadow/`` holds every image sample's ``nlos_shadow`` under the chosen spot, in
+    sample order: a person rendered again directly gives its block's image (float16 storage)."""
+    from nlos_spotlight.data.generate import plan
+    from nlos_spotlight.data.scene_builder import SceneBuilder
+    from nlos_spotlight.fit.shadow import load_shadows
+    from nlos_spotlight.render.settings import RenderSettings
+
+    out, report = fitted
+    sh = load_shadows(out, TINY)
+    assert sh.shape[0] == TINY.samples - TINY.transport_people and (sh <= 0).all() and (sh < 0).any()
+    meta = json.loads((out / "shadow" / "meta.json").read_text())
+    assert meta["face"] == report["spot"]["face"] and meta["shadow_samples"] == TINY.shadow_samples
+    dcfg = dataclasses.replace(dataset_config(TINY, out / "room"), room=str((out / "room").resolve()))
+    k = int(np.argmin(sh.reshape(len(sh), -1).sum(1)))  # the person who blocks the most
+    settings = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=TINY.pixel_footprint,
+                              spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
+                              shadow_samples=TINY.shadow_samples, device="cpu")
+    again = SceneBuilder(dcfg, plan(dcfg)[0], out / "data").rerender(
+        [TINY.transport_people + k], settings, np.asarray(report["spot"]["aim"]), ("nlos_shadow",))["nlos_shadow"][0]
+    np.testing.assert_allclose(sh[k], again, rtol=2e-3, atol=2e-3 * np.abs(again).max())

@@ -66,8 +66,9 @@ def test_shadow_rays_match_pair_rays():
     for closed in (True, False):
         d = pb[None] - pa[:, None]
         need = ((d * na[:, None]).sum(-1) * front[:, None] > 0) & (((d * nb[None]).sum(-1) < 0) | (not closed))
-        start = pair_loops.pair_start(pair_loops.need_counts(pa, na, front, pb, nb, closed))
-        org, dirs, length, idx = pair_loops.shadow_rays(pa, na, front, pb, nb, closed, start)
+        keys = pair_loops.no_keys(len(pa), len(pb))
+        start = pair_loops.pair_start(pair_loops.need_counts(pa, na, front, pb, nb, closed, *keys))
+        org, dirs, length, idx = pair_loops.shadow_rays(pa, na, front, pb, nb, closed, *keys, start)
         assert start[-1] == need.sum() > 0
         assert np.array_equal(idx, np.nonzero(need)[1])
         t = [torch.as_tensor(x) for x in (pa, na, pb, nb)]

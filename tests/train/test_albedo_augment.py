@@ -70,3 +70,39 @@ def test_albedo_factors_need_stored_albedos(toy_scene):
     s = toy_scene(4)
     with pytest.raises(NlosError, match="albedo"):
         albedo_factors(s, torch.arange(2), torch.full((2, 3), 0.3))
+
+
+def test_camera_clothing_reaches_black_and_white_fabric():
+    """The 'camera' range covers dark (0.05) and white (0.9) clothing; the dataset's stops short."""
+    g = torch.Generator().manual_seed(0)
+    cam = clothing_albedo(20_000, g, kind="camera").mean(1)
+    data = clothing_albedo(20_000, g, kind="dataset").mean(1)
+    assert float(cam.min()) < 0.05 and float(cam.max()) > 0.85
+    assert float(data.min()) > 0.06 and float(data.max()) < 0.7
+
+
+def test_shadow_term_joins_the_spot_light_not_the_clothing(micro_scene):
+    """A stored shadow term adds to the projector's person light as is, whatever the albedo (the
+    blocked light does not depend on the clothing), and only under its own spot."""
+    import dataclasses
+
+    from nlos_spotlight.errors import NlosError
+    from nlos_spotlight.train.imaging import form_parts
+
+    _, s = micro_scene
+    idx = torch.arange(s.num_samples)
+    spot = int(torch.nonzero(s.stored if s.stored is not None else torch.ones(len(s.faces), dtype=torch.bool))[0])
+    y = torch.zeros(len(s.faces), dtype=s.v.dtype)
+    y[spot] = 1
+    shadow = -torch.rand(s.num_samples, *s.nlos_ambient.shape[1:], generator=torch.Generator().manual_seed(1),
+                         dtype=s.v.dtype) * float(s.v.abs().max())
+    with_sh = dataclasses.replace(s, shadow=shadow, shadow_spot=spot)
+    albedo = torch.full((s.num_samples, 3), 0.05, dtype=s.v.dtype)
+    lit0, amb0, st0 = form_parts(s, idx, y, "spot", albedo)
+    lit1, amb1, st1 = form_parts(with_sh, idx, y, "spot", albedo)
+    assert torch.equal(lit1, lit0 + shadow) and torch.equal(amb1, amb0) and torch.equal(st1, st0)
+    assert torch.equal(form_parts(with_sh.subset(idx[1:]), idx[:-1], y)[0], form_parts(s, idx[1:], y)[0] + shadow[1:])
+    other = torch.zeros_like(y)
+    other[(spot + 1) % len(y)] = 1
+    with pytest.raises(NlosError, match=f"stored for spot {spot} only"):
+        form_parts(with_sh, idx, other, "spot")
