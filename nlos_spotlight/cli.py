@@ -482,6 +482,13 @@ def main(argv: list[str] | None = None) -> int:
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"error: {where}{exc.strerror or type(exc).__name__}", file=sys.stderr)
         return 2
+    except RecursionError:  # a JSON or YAML file nested absurdly deep
+        print("error: an input file is nested too deeply to read (a damaged or hostile file)", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:  # finished work is on disk: every step resumes
+        resume = " (rerun it with --resume to continue)" if getattr(args, "resume", None) is not None else ""
+        print(f"error: interrupted; what was finished is kept{resume}", file=sys.stderr)
+        return 130
     except (ValueError, RuntimeError, MemoryError) as exc:
         if os.environ.get("NLOS_DEBUG"):
             raise

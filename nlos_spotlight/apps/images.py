@@ -111,6 +111,9 @@ def read_image(path: Path, linear: bool = False) -> np.ndarray:
                         a, full = np.asarray(im, dtype=np.float64), 65535.0
                     else:
                         a, full = np.asarray(im.convert("RGBA" if "A" in im.mode else "RGB")), 255.0
+            except Image.DecompressionBombError:
+                raise NlosError(f"{path}: image too large (over {Image.MAX_IMAGE_PIXELS:,} pixels: a damaged "
+                                "or hostile file)") from None
             except (UnidentifiedImageError, SyntaxError, ValueError, OSError) as exc:
                 raise NlosError(f"{path}: unreadable image ({type(exc).__name__})") from None
     except FileNotFoundError:

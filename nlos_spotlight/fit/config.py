@@ -88,8 +88,8 @@ class FitConfig:
                             f"burst {self.burst_frames})")
         if not (self.epochs > 0):
             raise NlosError(f"fit: epochs must be positive, got {self.epochs!r}")
-        if self.seed < 0:
-            raise NlosError(f"--seed: expected a non-negative integer, got {self.seed}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2 ** 63:
+            raise NlosError(f"--seed: expected an integer from 0 to 2^63 - 1, got {self.seed}")
         from ..render.variation import preset
 
         try:

@@ -212,7 +212,17 @@ def test_config_checks():
         FitConfig(policy="nearest")
     with pytest.raises(Exception, match="absurd"):
         FitConfig(people=10**7)
+    with pytest.raises(Exception, match="2\\^63"):  # refused before anything renders
+        FitConfig(seed=2**64)
     assert PRESETS["default"].samples == 24 + 3000 + 200
+
+
+def test_deeply_nested_scene_is_one_line(tmp_path, capsys):
+    d = tmp_path / "deep"
+    d.mkdir()
+    (d / "scene.json").write_text("[" * 100_000 + "]" * 100_000)
+    _fails(capsys, ["fit", str(d), "--out", str(tmp_path / "m"), "--preset", "tiny", "--quiet"], "nested too deeply")
+    assert not (tmp_path / "m").exists()
 
 
 def test_ien_policy_uses_the_checkpoints_choice(toy_scene, room_dir, tmp_path):
