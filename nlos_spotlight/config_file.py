@@ -20,7 +20,11 @@ def load_config_file(spec: str, presets: dict, default_base: str = "tiny"):
     import yaml
 
     try:
-        d = yaml.safe_load(path.read_text()) or {}
+        text = path.read_text()
+        if any(isinstance(e, yaml.AliasEvent) for e in yaml.parse(text, Loader=yaml.SafeLoader)):
+            # an alias repeats a subtree: a few hundred bytes of them expand to billions of nodes
+            raise NlosError(f"{path}: YAML aliases (*name) are not allowed in a config file; write the values out")
+        d = yaml.safe_load(text) or {}
     except (yaml.YAMLError, UnicodeDecodeError) as exc:
         raise NlosError(f"{path}: invalid YAML ({str(exc).splitlines()[0]})") from None
     if not isinstance(d, dict):

@@ -14,7 +14,11 @@ from nlos_spotlight.train.config import load_train_config
 BAD = {"a list": ("- a\n- b\n", "expected a mapping"),
        "a bad base": ("base: nope\n", "base 'nope' is not a preset"),
        "broken YAML": ("a: [1,\n", "invalid YAML"),
-       "an unknown key": ("colour: 3\n", "unknown key 'colour'")}
+       "an unknown key": ("colour: 3\n", "unknown key 'colour'"),
+       "an alias bomb": ("a: &a [x, x, x, x, x, x, x, x, x]\n" + "".join(
+           f"{chr(98 + i)}: &{chr(98 + i)} [*{chr(97 + i)}, *{chr(97 + i)}, *{chr(97 + i)}, *{chr(97 + i)}, "
+           f"*{chr(97 + i)}, *{chr(97 + i)}, *{chr(97 + i)}, *{chr(97 + i)}, *{chr(97 + i)}]\n" for i in range(8))
+           + "families: *i\n", "aliases")}
 
 
 @pytest.mark.parametrize("loader", [load_config, load_train_config])

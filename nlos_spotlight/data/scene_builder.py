@@ -103,6 +103,10 @@ class SceneBuilder:
                 advance()
             if any(not (self.dir / "images" / f"{k:05d}.npz").exists() for k in range(m, n)):
                 return  # another part is still rendering; the last one to finish writes done.json
+        expected = {f"samples/{k:05d}.npz" for k in range(m)} | {f"images/{k:05d}.npz" for k in range(m, n)}
+        for p in [*self.dir.glob("samples/*.npz"), *self.dir.glob("images/*.npz")]:
+            if str(p.relative_to(self.dir)) not in expected:  # a stray file is not part of the scene
+                p.unlink()
         digests = {str(p.relative_to(self.dir)): file_digest(p)
                    for p in sorted(self.dir.rglob("*")) if p.is_file() and p.name != "done.json"}
         atomic_json(self.dir / "done.json", {"samples": n, "transport_samples": m, "digests": digests})
@@ -111,11 +115,11 @@ class SceneBuilder:
         """A finished scene's files match their digests; otherwise the bad ones and ``done.json``
         are deleted (the build then renders them again) and a line says which."""
         from ..console import console
-        from .verify import digest_problems
+        from .verify import STRAY, digest_problems
 
         bad = digest_problems(self.dir)
         for path, why in bad:
-            console.print(f"{path}: {why}; rendering it again")
+            console.print(f"{path}: {why}; {'removed' if why == STRAY else 'rendering it again'}")
             path.unlink(missing_ok=True)
             if (path.suffix in (".ply", ".obj") or path.name == "scene.json") and path.parent == self.dir:
                 (self.dir / "scene.json").unlink(missing_ok=True)  # the room's files are written again

@@ -38,7 +38,14 @@ def digest_problems(scene_dir: Path) -> list[tuple[Path, str]]:
             same = False
         if not same:
             out.append((p, "content does not match its digest (truncated, corrupted or edited)"))
+    for sub in ("samples", "images"):
+        for p in sorted((scene_dir / sub).glob("*.npz")) if (scene_dir / sub).is_dir() else []:
+            if f"{sub}/{p.name}" not in digests:
+                out.append((p, STRAY))
     return out
+
+
+STRAY = "not part of the dataset (a stray file)"
 
 
 def _shape_problems(scene_dir: Path) -> list[tuple[Path, str]]:

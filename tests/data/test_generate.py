@@ -238,3 +238,18 @@ def test_fused_kernels_give_the_same_data(micro_config, reference, tmp_path):
                 continue
             x, y = x.astype(np.float64), y.astype(np.float64)
             assert np.allclose(y, x, rtol=1e-3, atol=1e-5 * (np.abs(x).max() + 1e-30)), (f, k)
+
+
+def test_stray_file_fails_verify_and_regenerating_removes_it(micro_config, reference, tmp_path):
+    out, manifest = reference
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    stray = next(copy.glob("scenes/train-*/samples")) / "99999.npz"
+    np.savez(stray, junk=np.zeros(3))
+    from nlos_spotlight.data.verify import dataset_problems
+
+    assert any(p == stray and "stray file" in why for p, why in dataset_problems(copy)[0])
+    generate(DatasetConfig(**micro_config), copy, progress=False)
+    assert not stray.exists() and dataset_problems(copy)[0] == []
+    verify(copy)
+    assert json.loads((copy / "manifest.json").read_text())["content_sha256"] == manifest["content_sha256"]
