@@ -57,7 +57,10 @@ def cmd_render(args: argparse.Namespace) -> None:
         aim = scene.static_mesh()[0].centroids()[args.spot_face]
     if np.linalg.norm(aim - scene.projector.position) < 1e-6:
         raise NlosError(f"--spot-point: {aim.tolist()} is the projector's own position; aim at a surface")
-    settings = dataclasses.replace(base, **{f: getattr(args, flag) for flag, f in counts.items()})
+    if not 0 <= args.pixel_footprint <= 64:
+        raise NlosError(f"--pixel-footprint: expected 0 (off) to 64, got {args.pixel_footprint}")
+    settings = dataclasses.replace(base, pixel_footprint=args.pixel_footprint,
+                                   **{f: getattr(args, flag) for flag, f in counts.items()})
     r = Renderer(scene, settings, aim_points=aim[None])
     if not r.spot_landed[0]:
         raise NlosError(f"projector: aimed at nothing (no surface along the beam toward {aim.tolist()})")
@@ -337,6 +340,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--pixel-samples", type=int, help=f"n x n sub-samples per pixel, per-scene terms ({one.pixel_samples})")
     r.add_argument("--transport-samples", type=int,
                    help=f"n x n sub-samples per pixel, person terms ({one.transport_pixel_samples})")
+    r.add_argument("--pixel-footprint", type=int, default=0,
+                   help="person terms over each pixel's footprint from N x N sub-samples sharing out the body "
+                        "samples (about the cost of one; 0: --transport-samples instead)")
     r.add_argument("--person-samples", type=int, help=f"quadrature points on the person's body ({one.person_samples})")
     r.add_argument("--spot-samples", type=int, help=f"points sampling the spot's footprint ({one.spot_samples})")
     r.set_defaults(func=cmd_render)

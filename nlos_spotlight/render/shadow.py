@@ -68,6 +68,7 @@ class SpotShadow:
         self.area = r._t(area)
         self.rho = (self.h["kd"] + self.h["ks"]) / math.pi
         self._vis: dict[int, torch.Tensor] = {}  # group -> static visibility (``_static_visibility``)
+        self._group_cache: list | None = None  # ``_groups``: the renderer's sub-samples do not change
 
     def image(self, y: torch.Tensor, person: Person, t: torch.Tensor) -> torch.Tensor:
         """(H, W, 3) ``nlos_shadow`` (negative) of spot vector ``y`` and the body moved by ``t``."""
@@ -151,11 +152,18 @@ class SpotShadow:
     def _groups(self, rec) -> list[tuple[torch.Tensor, torch.Tensor]]:
         """(camera sub-samples, points h) that exchange light: all with all, or under footprint
         sampling each slot's sub-samples with the h shared out to that slot (``_Receivers.share``)."""
+        if self._group_cache is not None:
+            return self._group_cache
         dev = self.r.device
         if rec.key is None:
-            return [(torch.arange(len(rec.pixel), device=dev), torch.arange(len(self.h["pos"]), device=dev))]
+            self._group_cache = [(torch.arange(len(rec.pixel), device=dev), torch.arange(len(self.h["pos"]), device=dev))]
+            return self._group_cache
+        order = torch.argsort(rec.key, stable=True)  # rows by slot, one pass instead of one per slot
+        bounds = torch.searchsorted(rec.key[order], torch.arange(rec.n_sub + 1, device=dev)).tolist()
         slot = rec.share(len(self.h["pos"]), dev)
-        return [(torch.nonzero(rec.key == k).flatten(), torch.nonzero(slot == k).flatten()) for k in range(rec.n_sub)]
+        self._group_cache = [(order[bounds[k]:bounds[k + 1]], torch.nonzero(slot == k).flatten())
+                             for k in range(rec.n_sub)]
+        return self._group_cache
 
     def _chunks(self, rows: torch.Tensor):
         return torch.split(rows, self.r.settings.chunk)
