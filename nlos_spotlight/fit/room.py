@@ -147,6 +147,28 @@ def check_hidden(engine, camera: Camera, projector: Projector, region: HiddenReg
     return rec
 
 
+def check_projector_sees(engine, camera: Camera, position: np.ndarray) -> None:
+    """Refuse a projector that can light none of what the camera photographs (every spot's
+    light would be invisible: the fit would train on blank photographs)."""
+    from ..render.camera import pixel_rays
+
+    dirs, origin = pixel_rays(camera, 1)
+    dirs = dirs.reshape(-1, 3)
+    hits = engine.first_hit(np.broadcast_to(origin, dirs.shape).copy(), dirs)
+    if not hits.hit.any():
+        return  # the camera check names this
+    face = hits.face[hits.hit]
+    pts = engine.surface_point(face, hits.bary[hits.hit])
+    tri = engine.vertices[engine.faces[face]]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    same_side = np.einsum("ij,ij->i", n, position - pts) * np.einsum("ij,ij->i", n, origin - pts) > 0
+    seen = same_side & ~engine.occluded(np.broadcast_to(position, pts.shape).copy(), pts, None, n / np.maximum(
+        np.linalg.norm(n, axis=1, keepdims=True), 1e-30) * np.sign(np.einsum("ij,ij->i", n, origin - pts))[:, None])
+    if not seen.any():
+        raise NlosError(f"projector at {np.round(position, 3).tolist()}: it reaches none of the surfaces the camera "
+                        "photographs, so no spot would show; move it (--projector-position)")
+
+
 def check_standable(scene: Scene, spacing: float = 0.1) -> float:
     """Fraction of the hidden region (a ``spacing`` grid) where a person may stand; a region with
     almost none is refused (people are placed there by rejection sampling)."""
@@ -256,6 +278,7 @@ def room_setup(source: str | Path, resolution: int, camera_position=None, camera
         scene.hidden_region = HiddenRegion(np.zeros(2), np.ones(2), floor_z)  # the floor height, for the search
         scene.hidden_region = default_region(scene, setup.engine)
         sources["hidden_region"] = "default"
+    check_projector_sees(setup.engine, camera, proj.position)
     hidden = check_hidden(setup.engine, camera, proj, scene.hidden_region)
     hidden["standable_fraction"] = check_standable(scene)
     return RoomSetup(scene, sources, setup.file_to_world, hidden)

@@ -306,3 +306,10 @@ def test_shadow_step_stores_each_persons_blocked_light(fitted):
     again = SceneBuilder(dcfg, plan(dcfg)[0], out / "data").rerender(
         [TINY.transport_people + k], settings, np.asarray(report["spot"]["aim"]), ("nlos_shadow",))["nlos_shadow"][0]
     np.testing.assert_allclose(sh[k], again, rtol=2e-3, atol=2e-3 * np.abs(again).max())
+
+
+def test_projector_that_lights_nothing_in_view_is_refused(room_dir, tmp_path, capsys):
+    """Behind the relay wall, the projector lights none of what the camera sees (issue 36, item 3)."""
+    _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "m"), "--projector-position", "0,-1,1",
+                    "--preset", "tiny", "--quiet"], "reaches none of the surfaces the camera photographs")
+    assert not (tmp_path / "m").exists()
