@@ -92,13 +92,14 @@ class Person:
         return len(self.pos)
 
 
-def monte_carlo(areas: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(face, barycentric, area) of n stratified samples: systematic over the area CDF, R2 points."""
+def monte_carlo(areas: np.ndarray, n: int, offset: float = 0.5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(face, barycentric, area) of n stratified samples: systematic over the area CDF, R2 points;
+    ``offset`` in [0, 1) shifts the strata (another set of points of the same rule)."""
     cdf = np.cumsum(areas) / areas.sum()
-    u = (np.arange(n) + 0.5) / n
+    u = (np.arange(n) + offset) / n
     face = np.minimum(np.searchsorted(cdf, u), len(areas) - 1)
-    r1 = (0.5 + np.arange(n) * PLASTIC) % 1.0
-    r2 = (0.5 + np.arange(n) * PLASTIC**2) % 1.0
+    r1 = (offset + np.arange(n) * PLASTIC) % 1.0
+    r2 = (offset + np.arange(n) * PLASTIC**2) % 1.0
     s = np.sqrt(r1)
     bary = np.stack([1 - s, s * (1 - r2), s * r2], axis=1)
     return face, bary, np.full(n, areas.sum() / n)

@@ -39,6 +39,9 @@ if TYPE_CHECKING:
     from .transport import Renderer
 
 
+RELAY_OFFSET = 0.5
+"""Offset of the relay points' strata (``person.monte_carlo``): the same points for every person a
+renderer draws, so their sampling error is a fixed pattern of the room (robustness benchmark)."""
 STATIC_CACHE_PAIRS = 1 << 26
 """Largest (camera sub-sample, h) visibility a renderer keeps (a byte a pair: 64 MB)."""
 
@@ -63,7 +66,7 @@ class SpotShadow:
 
     def __init__(self, r: "Renderer"):
         self.r = r
-        face, bary, area = monte_carlo(r.static.mesh.face_areas(), r.settings.shadow_samples)
+        face, bary, area = monte_carlo(r.static.mesh.face_areas(), r.settings.shadow_samples, RELAY_OFFSET)
         self.h = r.static.shade(face, bary).torch(r.device, r.dtype)
         self.area = r._t(area)
         self.rho = (self.h["kd"] + self.h["ks"]) / math.pi
