@@ -18,7 +18,13 @@ def parse_numbers(text: str, fields: str, flag: str) -> np.ndarray:
     if len(vals) != len(names) or not np.all(np.isfinite(vals)):
         count = {2: "two", 3: "three", 4: "four"}.get(len(names), str(len(names)))
         raise NlosError(f"{flag}: expected {count} finite numbers {fields}, got {text!r}")
+    if max(abs(v) for v in vals) > MAX_COORDINATE_M:  # later arithmetic would overflow with warnings
+        raise NlosError(f"{flag}: {text!r} lies beyond {MAX_COORDINATE_M:.0e} m; give meters in the room's frame")
     return np.array(vals)
+
+
+MAX_COORDINATE_M = 1e6
+"""Largest coordinate a flag may give, m (a room is tens of meters)."""
 
 
 __all__ = ["parse_numbers"]

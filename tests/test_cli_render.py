@@ -6,6 +6,7 @@ import json
 import os
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 
@@ -129,6 +130,10 @@ def test_bad_paths_and_values_name_themselves(tmp_path, capsys, monkeypatch):
     proj = ",".join(str(v) for v in corner_scene("diffuse_corner").projector.position)
     assert main(["render", str(scene), "--spot-point", proj, "--out", str(tmp_path / "y.npy")]) == 2
     assert "projector's own position" in capsys.readouterr().err
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no RuntimeWarning before the error (issue 36, item 9)
+        assert main(["render", str(scene), "--spot-point", "1e308,0,0", "--out", str(tmp_path / "y.npy")]) == 2
+    assert "beyond 1e+06 m" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a_dir.npy", "file", "scene"]
     monkeypatch.setenv("NLOS_DEBUG", "1")
     with pytest.raises(NlosError):
