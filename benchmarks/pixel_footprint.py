@@ -27,14 +27,11 @@ import torch
 
 
 def builder_of(model: Path):
-    from nlos_spotlight.data.generate import plan
-    from nlos_spotlight.data.scene_builder import SceneBuilder
     from nlos_spotlight.fit.config import FitConfig
-    from nlos_spotlight.fit.run import dataset_config
+    from nlos_spotlight.fit.run import room_builder
 
     cfg = FitConfig.from_record(json.loads((model / "fit.json").read_text())["settings"])
-    dcfg = dataclasses.replace(dataset_config(cfg, model / "room"), room=str((model / "room").resolve()))
-    return SceneBuilder(dcfg, plan(dcfg)[0], model / "data"), dcfg, cfg
+    return (*room_builder(model, cfg), cfg)
 
 
 def main(argv=None) -> int:

@@ -51,6 +51,7 @@ import numpy as np
 import torch
 
 from nlos_spotlight.errors import NlosError
+from nlos_spotlight.fit.run import room_builder
 
 COLUMNS = ("room", "reading", "condition", "magnitude", "posture_accuracy", "posture3_accuracy", "error_cm", "people")
 CAMERA_CONDITIONS = ("footprint-offsets", "relay-offsets", "pixel-integrated", "pixel-integrated-2x2", "shadow", "camera", "clothing-dark", "clothing-light",
@@ -87,14 +88,12 @@ class Room:
 
 
 def load_room(name: str, reading: str, path: Path, people: int) -> Room:
-    from nlos_spotlight.fit.config import FitConfig
     from nlos_spotlight.fit.train import fit_train_config, room_layers, split_period
     from nlos_spotlight.train.checkpoint import load_trained
     from nlos_spotlight.train.imaging import capture_sensor
 
     rep = json.loads((path / "report.json").read_text())
-    settings = json.loads((path / "fit.json").read_text())["settings"]
-    cfg = FitConfig.from_record(settings)
+    cfg = fit_config(path)
     if people > cfg.heldout:
         raise NlosError(f"--people: {path} holds {cfg.heldout} held-out people, not {people}")
     from nlos_spotlight.data.tensors import load_split
@@ -113,14 +112,17 @@ def load_room(name: str, reading: str, path: Path, people: int) -> Room:
                 capture_sensor(tuple(test.ambient.shape[:2]), tc.sensor), idx)
 
 
+def fit_config(model: Path):
+    """The ``FitConfig`` a room model was fitted with (``fit.json``)."""
+    from nlos_spotlight.fit.config import FitConfig
+
+    return FitConfig.from_record(json.loads((Path(model) / "fit.json").read_text())["settings"])
+
+
 def camera_people(room: Room, cache: Path, pixel_samples: int) -> dict[str, np.ndarray]:
     """The held-out people rendered again (cached): the fit's settings (a reproduction check),
     ``pixel_samples``^2 sub-samples a pixel, and the shadow term."""
-    from nlos_spotlight.data.generate import plan
-    from nlos_spotlight.data.scene_builder import SceneBuilder
     from nlos_spotlight.data.store import atomic_npz
-    from nlos_spotlight.fit.config import FitConfig
-    from nlos_spotlight.fit.run import dataset_config
     from nlos_spotlight.render.settings import RenderSettings
 
     path = cache / room.name / f"people-{len(room.indices)}-p{pixel_samples}.npz"
@@ -128,10 +130,7 @@ def camera_people(room: Room, cache: Path, pixel_samples: int) -> dict[str, np.n
         with np.load(path, allow_pickle=False) as z:
             if list(z["indices"]) == room.indices:
                 return {k: z[k] for k in z.files}
-    settings = json.loads((room.path / "fit.json").read_text())["settings"]
-    cfg = FitConfig.from_record(settings)
-    dcfg = dataclasses.replace(dataset_config(cfg, room.path / "room"), room=str((room.path / "room").resolve()))
-    builder = SceneBuilder(dcfg, plan(dcfg)[0], room.path / "data")
+    builder, dcfg = room_builder(room.path, fit_config(room.path))
     base = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
                           pixel_footprint=dcfg.pixel_footprint, spot_samples=dcfg.spot_samples,
                           person_samples=dcfg.person_samples, device="cpu")
@@ -151,21 +150,16 @@ def fit_reproduction(room: Room, cache: Path) -> dict[str, np.ndarray]:
     (``fit_nlos``: the check that they are the dataset's) and, for a fit with footprint sampling,
     all of them at its footprint with other pixel offsets (``offset_nlos``, :data:`CAMERA_SEED`)."""
     import nlos_spotlight.render.transport as transport
-    from nlos_spotlight.data.generate import plan
-    from nlos_spotlight.data.scene_builder import SceneBuilder
     from nlos_spotlight.data.store import atomic_npz
-    from nlos_spotlight.fit.config import FitConfig
-    from nlos_spotlight.fit.run import dataset_config
     from nlos_spotlight.render.settings import RenderSettings
 
-    cfg = FitConfig.from_record(json.loads((room.path / "fit.json").read_text())["settings"])
+    cfg = fit_config(room.path)
     path = cache / room.name / f"fit-{len(room.indices)}-f{cfg.pixel_footprint}-s{cfg.shadow_samples}.npz"
     if path.exists():
         with np.load(path, allow_pickle=False) as z:
             if list(z["indices"]) == room.indices:
                 return {k: z[k] for k in z.files if k != "indices"}
-    dcfg = dataclasses.replace(dataset_config(cfg, room.path / "room"), room=str((room.path / "room").resolve()))
-    builder = SceneBuilder(dcfg, plan(dcfg)[0], room.path / "data")
+    builder, dcfg = room_builder(room.path, cfg)
     base = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
                           pixel_footprint=dcfg.pixel_footprint, spot_samples=dcfg.spot_samples,
                           person_samples=dcfg.person_samples, device="cpu")
@@ -198,11 +192,7 @@ def camera_photographs(room: Room, cache: Path) -> dict[str, np.ndarray]:
     rendered apart from the fit's own sampling (:data:`CAMERA_SEED`): ``cam_nlos``,
     ``cam_nlos_ambient``, ``cam_nlos_shadow``."""
     import nlos_spotlight.render.transport as transport
-    from nlos_spotlight.data.generate import plan
-    from nlos_spotlight.data.scene_builder import SceneBuilder
     from nlos_spotlight.data.store import atomic_npz
-    from nlos_spotlight.fit.config import FitConfig
-    from nlos_spotlight.fit.run import dataset_config
     from nlos_spotlight.render.settings import RenderSettings
 
     path = cache / room.name / f"camera-{len(room.indices)}-f{CAMERA_FOOTPRINT}-s{CAMERA_SHADOW_SAMPLES}.npz"
@@ -210,10 +200,7 @@ def camera_photographs(room: Room, cache: Path) -> dict[str, np.ndarray]:
         with np.load(path, allow_pickle=False) as z:
             if list(z["indices"]) == room.indices:
                 return {k: z[k] for k in z.files}
-    settings = json.loads((room.path / "fit.json").read_text())["settings"]
-    cfg = FitConfig.from_record(settings)
-    dcfg = dataclasses.replace(dataset_config(cfg, room.path / "room"), room=str((room.path / "room").resolve()))
-    builder = SceneBuilder(dcfg, plan(dcfg)[0], room.path / "data")
+    builder, dcfg = room_builder(room.path, fit_config(room.path))
     rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=CAMERA_FOOTPRINT,
                         spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
                         shadow_samples=CAMERA_SHADOW_SAMPLES, device="cpu")
@@ -243,19 +230,14 @@ def mitsuba_people(room: Room, cache: Path, spp: int, count: int, progress: bool
     interreflections. Two halves of ``spp`` at other seeds give the Monte Carlo noise. One cached
     file a person (resumable): ``mitsuba_presence`` (N, H, W, 3) and ``mitsuba_noise`` (N,), the
     relative L2 standard error of each image."""
-    from nlos_spotlight.data.generate import plan
-    from nlos_spotlight.data.scene_builder import SceneBuilder
     from nlos_spotlight.data.store import atomic_npz
-    from nlos_spotlight.fit.config import FitConfig
-    from nlos_spotlight.fit.run import dataset_config
     from nlos_spotlight.render.mitsuba_ref import mitsuba_nlos
     from nlos_spotlight.scene.format import Human
 
     d = cache / room.name / f"mitsuba-d{MITSUBA_DEPTH}-spp{spp}"
     d.mkdir(parents=True, exist_ok=True)
-    cfg = FitConfig.from_record(json.loads((room.path / "fit.json").read_text())["settings"])
-    dcfg = dataclasses.replace(dataset_config(cfg, room.path / "room"), room=str((room.path / "room").resolve()))
-    builder = SceneBuilder(dcfg, plan(dcfg)[0], room.path / "data")
+    cfg = fit_config(room.path)
+    builder, dcfg = room_builder(room.path, cfg)
     scene, _ = builder._room()
     specs, out, noise, t0 = builder._specs(scene), [], [], time.perf_counter()
     for n, k in enumerate(room.indices[:count]):

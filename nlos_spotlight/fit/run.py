@@ -18,6 +18,7 @@ Steps, each resumable (a rerun with ``--resume`` skips what is finished and cont
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import multiprocessing as mp
 import os
@@ -45,6 +46,17 @@ def dataset_config(cfg: FitConfig, room_dir: Path, extra_spots: list[int] | None
                          los_vertices=cfg.los_vertices, body_faces=cfg.body_faces, person_samples=cfg.person_samples,
                          person_quadrature=cfg.person_quadrature, pixel_footprint=cfg.pixel_footprint, room=str(Path("..") / room_dir.name),
                          extra_spots=list(extra_spots or []))
+
+
+def room_builder(out: Path, cfg: FitConfig):
+    """(``SceneBuilder``, ``DatasetConfig``) of a room model's one room: its people drawn again as the
+    fit drew them (``SceneBuilder.rerender``), the room named by its absolute path."""
+    from ..data.generate import plan
+    from ..data.scene_builder import SceneBuilder
+
+    out = Path(out)
+    dcfg = dataclasses.replace(dataset_config(cfg, out / "room"), room=str((out / "room").resolve()))
+    return SceneBuilder(dcfg, plan(dcfg)[0], out / "data"), dcfg
 
 
 def _part(dcfg, data: str, i: int, n: int) -> None:
@@ -306,4 +318,4 @@ def _ien_spot(cfg: FitConfig, room_dir: Path) -> list[int]:
     return [ien_face(models, scene, los)]
 
 
-__all__ = ["FORMAT", "dataset_config", "fit_room", "render_people", "reuse_people"]
+__all__ = ["FORMAT", "dataset_config", "fit_room", "render_people", "reuse_people", "room_builder"]

@@ -12,7 +12,6 @@ every person's light (``SceneTensors.shadow``); it scales with the projector, no
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import multiprocessing as mp
 from pathlib import Path
@@ -57,15 +56,12 @@ def _one_thread() -> None:
 def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int]) -> int:
     """One block: the people rendered again as the dataset drew them (``SceneBuilder.rerender``),
     their ``nlos_shadow`` under the spot aimed at ``aim``."""
-    from ..data.generate import plan
-    from ..data.scene_builder import SceneBuilder
     from ..data.store import atomic_npz, f16_encode
     from ..render.settings import RenderSettings
-    from .run import dataset_config
+    from .run import room_builder
 
     out_p, fc = Path(out), FitConfig(**cfg)
-    dcfg = dataclasses.replace(dataset_config(fc, out_p / "room"), room=str((out_p / "room").resolve()))
-    builder = SceneBuilder(dcfg, plan(dcfg)[0], out_p / "data")
+    builder, dcfg = room_builder(out_p, fc)
     settings = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
                               pixel_footprint=dcfg.pixel_footprint, spot_samples=dcfg.spot_samples,
                               person_samples=dcfg.person_samples, shadow_samples=fc.shadow_samples, device="cpu")
