@@ -35,7 +35,6 @@ def builder_of(model: Path):
 
 
 def main(argv=None) -> int:
-    import nlos_spotlight.render.transport as transport
     from nlos_spotlight.render.settings import RenderSettings
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -52,14 +51,11 @@ def main(argv=None) -> int:
     builder.rerender(idx[:1], base, aim, ("nlos",))  # compile the loops before timing
 
     def run(term, seed=None, **kw):
-        old = transport.FOOTPRINT_SEED
-        transport.FOOTPRINT_SEED = old if seed is None else seed
-        try:
-            t0 = time.perf_counter()
-            img = builder.rerender(idx, dataclasses.replace(base, **kw), aim, (term,))[term]
-            return img, (time.perf_counter() - t0) / len(idx)
-        finally:
-            transport.FOOTPRINT_SEED = old
+        if seed is not None:
+            kw["footprint_seed"] = seed
+        t0 = time.perf_counter()
+        img = builder.rerender(idx, dataclasses.replace(base, **kw), aim, (term,))[term]
+        return img, (time.perf_counter() - t0) / len(idx)
 
     rel = lambda a, b: float(np.mean([np.linalg.norm(x - y) / np.linalg.norm(y) for x, y in zip(a, b)]))
     rows = []

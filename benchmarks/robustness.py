@@ -67,7 +67,9 @@ own bias is about 1.5% in the copy room), with pixel offsets drawn apart from th
 CAMERA_SHADOW_SAMPLES = 8192
 """Static points relaying the light the body blocks in the camera photographs (twice the fit's)."""
 CAMERA_SEED = 7
-"""``render.transport.FOOTPRINT_SEED`` of the camera photographs (the fit's is another)."""
+"""``RenderSettings.footprint_seed`` of the camera photographs (the fit's is the default)."""
+RELAY_OFFSET = 0.25
+"""``RenderSettings.relay_offset`` of the ``relay-offsets`` condition (a fixed-relay fit's is 0.5)."""
 REPRODUCED = 10
 """Held-out people rendered again at the fit's own settings: the check that they are the dataset's."""
 
@@ -149,7 +151,6 @@ def fit_reproduction(room: Room, cache: Path) -> dict[str, np.ndarray]:
     """The first :data:`REPRODUCED` held-out people rendered again at the fit's own settings
     (``fit_nlos``: the check that they are the dataset's) and, for a fit with footprint sampling,
     all of them at its footprint with other pixel offsets (``offset_nlos``, :data:`CAMERA_SEED`)."""
-    import nlos_spotlight.render.transport as transport
     from nlos_spotlight.data.store import atomic_npz
     from nlos_spotlight.render.settings import RenderSettings
 
@@ -165,22 +166,11 @@ def fit_reproduction(room: Room, cache: Path) -> dict[str, np.ndarray]:
                           person_samples=dcfg.person_samples, device="cpu")
     out = {"fit_nlos": builder.rerender(room.indices[:REPRODUCED], base, room.aim, ("nlos",))["nlos"]}
     if cfg.shadow_samples > 0:  # the fit's own shadow, only its relay points drawn apart
-        import nlos_spotlight.render.shadow as shadow
-
-        offset = shadow.RELAY_OFFSET
-        shadow.RELAY_OFFSET = 0.25
-        try:
-            out["relay_shadow"] = builder.rerender(room.indices, dataclasses.replace(
-                base, shadow_samples=cfg.shadow_samples), room.aim, ("nlos_shadow",))["nlos_shadow"]
-        finally:
-            shadow.RELAY_OFFSET = offset
+        out["relay_shadow"] = builder.rerender(room.indices, dataclasses.replace(
+            base, shadow_samples=cfg.shadow_samples, relay_offset=RELAY_OFFSET), room.aim, ("nlos_shadow",))["nlos_shadow"]
     if cfg.pixel_footprint > 0:
-        seed = transport.FOOTPRINT_SEED
-        transport.FOOTPRINT_SEED = CAMERA_SEED
-        try:
-            out["offset_nlos"] = builder.rerender(room.indices, base, room.aim, ("nlos",))["nlos"]
-        finally:
-            transport.FOOTPRINT_SEED = seed
+        out["offset_nlos"] = builder.rerender(room.indices, dataclasses.replace(base, footprint_seed=CAMERA_SEED),
+                                              room.aim, ("nlos",))["nlos"]
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_npz(path, indices=np.asarray(room.indices), **out)
     return out
@@ -191,7 +181,6 @@ def camera_photographs(room: Room, cache: Path) -> dict[str, np.ndarray]:
     (:data:`CAMERA_FOOTPRINT`) and the light their bodies block (:data:`CAMERA_SHADOW_SAMPLES`),
     rendered apart from the fit's own sampling (:data:`CAMERA_SEED`): ``cam_nlos``,
     ``cam_nlos_ambient``, ``cam_nlos_shadow``."""
-    import nlos_spotlight.render.transport as transport
     from nlos_spotlight.data.store import atomic_npz
     from nlos_spotlight.render.settings import RenderSettings
 
@@ -203,13 +192,9 @@ def camera_photographs(room: Room, cache: Path) -> dict[str, np.ndarray]:
     builder, dcfg = room_builder(room.path, fit_config(room.path))
     rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=CAMERA_FOOTPRINT,
                         spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
-                        shadow_samples=CAMERA_SHADOW_SAMPLES, device="cpu")
-    t0, seed = time.perf_counter(), transport.FOOTPRINT_SEED
-    transport.FOOTPRINT_SEED = CAMERA_SEED
-    try:
-        got = builder.rerender(room.indices, rs, room.aim, ("nlos", "nlos_ambient", "nlos_shadow"))
-    finally:
-        transport.FOOTPRINT_SEED = seed
+                        shadow_samples=CAMERA_SHADOW_SAMPLES, footprint_seed=CAMERA_SEED, device="cpu")
+    t0 = time.perf_counter()
+    got = builder.rerender(room.indices, rs, room.aim, ("nlos", "nlos_ambient", "nlos_shadow"))
     out = {"indices": np.asarray(room.indices), **{f"cam_{k}": v for k, v in got.items()},
            "seconds": np.float64(time.perf_counter() - t0)}
     path.parent.mkdir(parents=True, exist_ok=True)

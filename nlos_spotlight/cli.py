@@ -206,7 +206,8 @@ def cmd_fit(args: argparse.Namespace) -> None:
     if args.preset not in PRESETS:
         raise NlosError(f"--preset: expected one of {', '.join(PRESETS)}, got {args.preset!r}")
     changes = {k: getattr(args, k) for k in ("people", "policy", "seed", "burst", "workers", "capture_preset",
-                                             "pixel_footprint", "shadow_samples", "clothing") if getattr(args, k) is not None}
+                                             "pixel_footprint", "shadow_samples", "shadow_relay", "clothing")
+               if getattr(args, k) is not None}
     if "burst" in changes:
         changes["burst_frames"] = changes.pop("burst")
     if args.no_projection:
@@ -415,6 +416,8 @@ def build_parser() -> argparse.ArgumentParser:
                                                        "recipe before it)")
     f.add_argument("--shadow-samples", type=int, help="static points relaying the spot light each body blocks "
                                                       "(default 4096); 0: the shadow term left out")
+    f.add_argument("--shadow-relay", choices=("per-person", "fixed"), help="the shadow's relay points drawn "
+                                                                           "per person (default) or one fixed set")
     f.add_argument("--clothing", choices=("camera", "dataset"), help="clothing albedos training redresses people "
                                                                      "in: camera (black to white, default) or "
                                                                      "dataset (as rendered)")

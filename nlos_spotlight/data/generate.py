@@ -133,6 +133,11 @@ def _generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int], progr
     check_memory(cfg, "config")
     if out.exists() and not out.is_dir():
         raise NlosError(f"--out: {out} is a file, not a dataset directory")
+    plan(cfg)  # unknown families are refused before anything is written
+    if cfg.room:
+        from ..scene.io import load_scene
+
+        load_scene(room_dir(out, cfg.room))  # so is a room that is not a readable scene
     out.mkdir(parents=True, exist_ok=True)
     _check_config(out, cfg)
     if part[1] == 1:  # with several parts at work, another's temporary may be in flight

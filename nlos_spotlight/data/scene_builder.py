@@ -199,18 +199,23 @@ class SceneBuilder:
         return rec["spots"]
 
     def rerender(self, indices: list[int], settings: RenderSettings, aim: np.ndarray,
-                 components: tuple[str, ...] = ("nlos", "nlos_ambient")) -> dict[str, np.ndarray]:
+                 components: tuple[str, ...] = ("nlos", "nlos_ambient"),
+                 relay_offsets: list[float] | None = None) -> dict[str, np.ndarray]:
         """Samples ``indices`` of this room rendered again, lit by one spot aimed at ``aim`` (3,), with
         other ``settings`` or components (convergence and robustness studies): component name ->
-        (len(indices), H, W, 3) float64. The people are the dataset's (the same seeded draws)."""
+        (len(indices), H, W, 3) float64. The people are the dataset's (the same seeded draws);
+        ``relay_offsets``: each one's ``nlos_shadow`` relay offset (``settings.relay_offset`` if None)."""
         scene, _ = self._room()
         specs = self._specs(scene)
         r = Renderer(scene, settings, aim_points=np.asarray(aim, np.float64)[None])
         y = r.spot_vector(0)
         out = {c: [] for c in components}
-        for k in indices:
+        offsets = [None] * len(indices) if relay_offsets is None else list(relay_offsets)
+        if len(offsets) != len(indices):
+            raise ValueError(f"relay_offsets: {len(offsets)} for {len(indices)} samples")
+        for k, off in zip(indices, offsets):
             _, person, t = self._person(specs[k], scene.hidden_region.floor_z)
-            res = r.render(y, person, torch.as_tensor(t), components)
+            res = r.render(y, person, torch.as_tensor(t), components, relay_offset=off)
             for c in components:
                 out[c].append(res[c].double().cpu().numpy())
         return {c: np.stack(v) for c, v in out.items()}

@@ -50,6 +50,10 @@ class FitConfig:
     """Static points relaying the spot light each person's body blocks (``nlos_shadow``, in every real
     with-minus-without photograph), rendered under the chosen spot and added to every training
     photograph (``fit/shadow.py``); 0 leaves it out (the recipe before it)."""
+    shadow_relay: str = "per-person"
+    """The shadow's relay points: 'per-person' (each person its own strata offset, one of
+    ``fit.shadow.RELAY_SETS`` a block, so that their sampling error is noise, not a pattern the
+    network can learn) or 'fixed' (one set for all, the recipe before it)."""
     clothing: str = "camera"
     """Clothing albedos training redresses people in (exact: the light is linear in albedo):
     'camera' (0.03-0.9: black to white fabric, ``world.body.CAMERA_CLOTHING``) or 'dataset' (the
@@ -79,6 +83,8 @@ class FitConfig:
         if isinstance(self.shadow_samples, bool) or not isinstance(self.shadow_samples, int) \
                 or not 0 <= self.shadow_samples <= 1_000_000:
             raise NlosError(f"fit: shadow_samples must be an integer from 0 (off) to 1000000, got {self.shadow_samples!r}")
+        if self.shadow_relay not in ("per-person", "fixed"):
+            raise NlosError(f"--shadow-relay: expected 'per-person' or 'fixed', got {self.shadow_relay!r}")
         if self.clothing not in ("camera", "dataset"):
             raise NlosError(f"--clothing: expected 'camera' or 'dataset', got {self.clothing!r}")
         if not 0 <= self.pixel_footprint <= 64 or isinstance(self.pixel_footprint, bool):
@@ -119,7 +125,7 @@ class FitConfig:
 
 
 BEFORE = {"capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "shadow_samples": 0,
-          "clothing": "dataset"}
+          "clothing": "dataset", "shadow_relay": "fixed"}
 """What a room model fitted before each of these settings existed did (see their docstrings)."""
 
 

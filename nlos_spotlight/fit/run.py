@@ -22,6 +22,7 @@ import dataclasses
 import json
 import multiprocessing as mp
 import os
+import shutil
 import time
 from pathlib import Path
 
@@ -31,7 +32,8 @@ from .config import FitConfig
 FORMAT = "nlos-room-model/1"
 RESUMABLE_CHANGES = ("workers",)
 """Settings a resumed fit may change: the process count (the output is byte-identical)."""
-TRAINING_ONLY = ("capture_preset", "project_nuisance", "epochs", "min_steps", "workers", "shadow_samples", "clothing")
+TRAINING_ONLY = ("capture_preset", "project_nuisance", "epochs", "min_steps", "workers", "shadow_samples", "shadow_relay",
+                 "clothing")
 """Settings that leave the room and its rendered people as they are (``--people-from`` may differ in them)."""
 
 
@@ -212,16 +214,23 @@ def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = F
 
         check_ien_run(cfg.checkpoint)
     check_out(out, record, resume)
-    if people_from is not None and not (out / "fit.json").exists():
-        reuse_people(people_from, out, record)
-    clock = StepClock(out)
-    console.rule("1/5 room")
-    setup = _room(room, out, cfg, flags, record)
-    clock.lap("room_s")
-    console.rule("2/5 people")
-    extra = _ien_spot(cfg, out / "room") if cfg.policy == "ien" else []
-    render_people(dataset_config(cfg, out / "room", extra), out / "data", cfg.workers, progress)
-    clock.lap("generate_s")
+    fresh = not (out / "fit.json").exists()
+    try:
+        if people_from is not None and fresh:
+            reuse_people(people_from, out, record)
+        clock = StepClock(out)
+        console.rule("1/5 room")
+        setup = _room(room, out, cfg, flags, record)
+        clock.lap("room_s")
+        console.rule("2/5 people")
+        extra = _ien_spot(cfg, out / "room") if cfg.policy == "ien" else []
+        render_people(dataset_config(cfg, out / "room", extra), out / "data", cfg.workers, progress)
+        clock.lap("generate_s")
+    except NlosError as exc:
+        if fresh and not _has_people(out):  # refused before any work worth keeping: the corrected rerun starts clean
+            shutil.rmtree(out, ignore_errors=True)
+            raise NlosError(f"{exc} (nothing was kept in {out})") from None
+        raise
     console.rule("3/5 spot")
     from .spot import policy_face, spot_record
     from .train import room_layers, room_split, train_room
@@ -254,6 +263,11 @@ def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = F
                   f"{report['timing_s']['total_s'] / 60:.1f} min before the report; room model: {out.resolve()} "
                   "(final.pt, report.json, report.html)")
     return report
+
+
+def _has_people(out: Path) -> bool:
+    """Whether ``out`` holds a rendered person (work a failed fit must keep for --resume)."""
+    return (out / "data").is_dir() and any(p.suffix == ".npz" for p in (out / "data").rglob("*.npz"))
 
 
 def _room(room: str, out: Path, cfg: FitConfig, flags: dict, record: dict) -> dict:

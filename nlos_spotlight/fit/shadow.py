@@ -23,6 +23,19 @@ from .config import FitConfig
 
 BLOCK = 100
 """People per shadow file (a worker's unit of work: one renderer precompute per block)."""
+RELAY_SETS = 8
+"""Sets of relay points a block draws (``shadow_relay='per-person'``): each set's static visibility
+is cast once and shared by the block's people that use it (about 1/8 of them)."""
+PHI = 0.6180339887498949
+"""Golden-ratio step between blocks' offsets: every block's sets differ from every other's."""
+
+
+def relay_offsets(indices: list[int], cfg: FitConfig) -> list[float] | None:
+    """The strata offset of each sample's relay points (None: the renderer's one fixed set).
+    Sample k uses set k mod :data:`RELAY_SETS` of its block, shifted by the block's golden-ratio step."""
+    if cfg.shadow_relay == "fixed":
+        return None
+    return [float((k // BLOCK * PHI + (k % RELAY_SETS) / RELAY_SETS) % 1.0) for k in indices]
 
 
 def shadow_dir(out: Path) -> Path:
@@ -65,7 +78,8 @@ def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int]
     settings = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
                               pixel_footprint=dcfg.pixel_footprint, spot_samples=dcfg.spot_samples,
                               person_samples=dcfg.person_samples, shadow_samples=fc.shadow_samples, device="cpu")
-    img = builder.rerender(indices, settings, np.asarray(aim, np.float64), ("nlos_shadow",))["nlos_shadow"]
+    img = builder.rerender(indices, settings, np.asarray(aim, np.float64), ("nlos_shadow",),
+                           relay_offsets(indices, fc))["nlos_shadow"]
     half, scale = f16_encode(img, True)
     atomic_npz(_path(out_p, block), indices=np.asarray(indices, np.int64), nlos_shadow=half, nlos_shadow_scale=scale)
     return len(indices)
@@ -82,8 +96,9 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
 
     out, d = Path(out), shadow_dir(out)
     meta = {"face": int(spot["face"]), "aim": [float(a) for a in spot["aim"]], "shadow_samples": cfg.shadow_samples,
-            "pixel_footprint": cfg.pixel_footprint}
-    if (d / "meta.json").exists() and json.loads((d / "meta.json").read_text()) != meta:
+            "pixel_footprint": cfg.pixel_footprint, "shadow_relay": cfg.shadow_relay}
+    stored = {"shadow_relay": "fixed", **json.loads((d / "meta.json").read_text())} if (d / "meta.json").exists() else meta
+    if stored != meta:
         for p in d.glob("block-*.npz"):  # another spot or setting: nothing to keep
             p.unlink()
     d.mkdir(parents=True, exist_ok=True)

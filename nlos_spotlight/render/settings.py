@@ -19,12 +19,17 @@ class RenderSettings:
     share out the body samples (and the shadow's static points) among them, each pair once, at about
     the cost of one sub-sample (``Renderer`` docstring); 0: ``transport_pixel_samples`` sub-samples
     each see every body sample."""
+    footprint_seed: int = 20_241
+    """Seed of the pixels' fixed slot offsets in footprint sampling (images are deterministic)."""
     spot_samples: int = 64
     """Projector rays per candidate spot (equal solid angle)."""
     person_samples: int = 512
     """Area samples on the body."""
     shadow_samples: int = 4096
     """Area samples of the static surfaces relaying the spot light the person blocks (``nlos_shadow``)."""
+    relay_offset: float = 0.5
+    """Offset in [0, 1) of those samples' strata (``person.monte_carlo``); ``Renderer.render`` may
+    take another per call, so that people need not share one fixed pattern of relay points."""
     chunk: int = 2048
     """Receiver rows per block in the pair kernels (bounds memory)."""
     dtype: str = "float32"

@@ -39,9 +39,6 @@ if TYPE_CHECKING:
     from .transport import Renderer
 
 
-RELAY_OFFSET = 0.5
-"""Offset of the relay points' strata (``person.monte_carlo``): the same points for every person a
-renderer draws, so their sampling error is a fixed pattern of the room (robustness benchmark)."""
 STATIC_CACHE_PAIRS = 1 << 26
 """Largest (camera sub-sample, h) visibility a renderer keeps (a byte a pair: 64 MB)."""
 
@@ -62,11 +59,14 @@ def two_sided(m: torch.Tensor, side: torch.Tensor, light: torch.Tensor) -> torch
 
 
 class SpotShadow:
-    """Static sample points h of a renderer's scene and the blocked light through them."""
+    """Static sample points h of a renderer's scene (``shadow_samples`` strata of the static area,
+    shifted by ``offset``) and the blocked light through them. One fixed set for every person makes
+    its sampling error a fixed pattern of the room that a network can learn (the robustness
+    benchmark's ``relay-offsets``), so a dataset draws the offset per person (``fit/shadow.py``)."""
 
-    def __init__(self, r: "Renderer"):
+    def __init__(self, r: "Renderer", offset: float = 0.5):
         self.r = r
-        face, bary, area = monte_carlo(r.static.mesh.face_areas(), r.settings.shadow_samples, RELAY_OFFSET)
+        face, bary, area = monte_carlo(r.static.mesh.face_areas(), r.settings.shadow_samples, offset)
         self.h = r.static.shade(face, bary).torch(r.device, r.dtype)
         self.area = r._t(area)
         self.rho = (self.h["kd"] + self.h["ks"]) / math.pi

@@ -40,8 +40,8 @@ from .spot import cone_directions, spot_profile
 from .settings import RENDER_PRESETS, RenderSettings  # noqa: F401  (re-exported beside the renderer)
 from .surface import StaticSurfaces, SurfacePoints
 
-FOOTPRINT_SEED = 20_241
-"""Seed of the pixels' fixed slot offsets in footprint sampling (images are deterministic)."""
+RELAY_SETS_KEPT = 16
+"""Sets of relay points (``nlos_shadow``, one per strata offset) a renderer keeps with their cached visibility."""
 INTER_CACHE_SPOTS = 8
 """Largest support of y whose interreflection is read from the per-candidate images."""
 INTER_CACHE_SIZE = 256
@@ -120,6 +120,7 @@ class Renderer:
         self.D = self._direct_matrix()
         self.ambient_image = self._ambient()
         self._inter_cache: dict[int, torch.Tensor] = {}  # candidate -> its interreflection image
+        self._spot_shadows: dict = {}  # relay offset -> its ``SpotShadow`` (relay points, cached visibility)
 
     # ---------------------------------------------------------------- precompute
     def _t(self, x) -> torch.Tensor:
@@ -139,7 +140,7 @@ class Renderer:
         to_cam = -flat[hit]
         key = None
         if footprint:
-            turn = np.random.default_rng(FOOTPRINT_SEED).integers(n * n, size=self.shape[0] * self.shape[1])
+            turn = np.random.default_rng(self.settings.footprint_seed).integers(n * n, size=self.shape[0] * self.shape[1])
             key = torch.as_tensor((index % (n * n) + turn[pixel]) % (n * n), device=self.device)
         return _Receivers(surf.torch(self.device, self.dtype), self._t(to_cam),
                           torch.as_tensor(pixel, device=self.device), n * n, torch.as_tensor(surf.glossy, device=self.device),
@@ -209,7 +210,7 @@ class Renderer:
         return y
 
     def render(self, y: torch.Tensor, person: Person | None = None, translation=None,
-               components=DEFAULT_COMPONENTS) -> RenderOutput:
+               components=DEFAULT_COMPONENTS, relay_offset: float | None = None) -> RenderOutput:
         """Render the requested components.
 
         Args:
@@ -218,6 +219,8 @@ class Renderer:
             translation: None, (2|3,) or (B, 2|3) offsets of the body (floor x, y [, z]); a batch
                 dimension B makes every image (B, H, W, 3).
             components: names from :data:`COMPONENTS`.
+            relay_offset: the strata offset of ``nlos_shadow``'s relay points for this call
+                (``RenderSettings.relay_offset`` if None).
         """
         unknown = set(components) - set(COMPONENTS)
         if unknown:
@@ -234,7 +237,7 @@ class Renderer:
         if "ambient" in components:
             out.components["ambient"] = self.ambient_image
         if "nlos_shadow" in components:
-            out.components["nlos_shadow"] = self._shadow(y, person, translation)
+            out.components["nlos_shadow"] = self._shadow(y, person, translation, relay_offset)
         want = [c for c in ("nlos", "nlos_ambient") if c in components]
         if want:
             per = self._person_terms(y, person, translation, want)
@@ -259,16 +262,23 @@ class Renderer:
         sup = torch.nonzero(y).flatten()
         return torch.einsum("ptc,t->pc", self.D[:, sup], y[sup]).reshape(*self.shape, 3)
 
-    def _shadow(self, y: torch.Tensor, person: Person | None, translation) -> torch.Tensor:
-        """``nlos_shadow``: the spot light the body blocks on one static bounce (``render/shadow.py``)."""
+    def _shadow(self, y: torch.Tensor, person: Person | None, translation, offset: float | None) -> torch.Tensor:
+        """``nlos_shadow``: the spot light the body blocks on one static bounce (``render/shadow.py``),
+        relayed by the points of strata ``offset``."""
         if person is None:
             return torch.zeros(*self.shape, 3, device=self.device, dtype=self.dtype)
         from .shadow import SpotShadow
 
-        if getattr(self, "_spot_shadow", None) is None:
-            self._spot_shadow = SpotShadow(self)
+        offset = float(self.settings.relay_offset if offset is None else offset)
+        if not 0 <= offset < 1:
+            raise ValueError(f"relay_offset: expected a number in [0, 1), got {offset}")
+        cache = self._spot_shadows
+        if offset not in cache:
+            if len(cache) >= RELAY_SETS_KEPT:
+                cache.pop(next(iter(cache)))  # the oldest set
+            cache[offset] = SpotShadow(self, offset)
         t, batched = self._translations(translation)
-        imgs = [self._spot_shadow.image(y, person, tb) for tb in t]
+        imgs = [cache[offset].image(y, person, tb) for tb in t]
         return torch.stack(imgs) if batched else imgs[0]
 
     def _active(self, y: torch.Tensor) -> torch.Tensor:

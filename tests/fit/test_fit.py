@@ -290,7 +290,7 @@ def test_shadow_step_stores_each_persons_blocked_light(fitted):
     sample order: a person rendered again directly gives its block's image (float16 storage)."""
     from nlos_spotlight.data.generate import plan
     from nlos_spotlight.data.scene_builder import SceneBuilder
-    from nlos_spotlight.fit.shadow import load_shadows
+    from nlos_spotlight.fit.shadow import load_shadows, relay_offsets
     from nlos_spotlight.render.settings import RenderSettings
 
     out, report = fitted
@@ -303,9 +303,46 @@ def test_shadow_step_stores_each_persons_blocked_light(fitted):
     settings = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=TINY.pixel_footprint,
                               spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
                               shadow_samples=TINY.shadow_samples, device="cpu")
+    idx = [TINY.transport_people + k]
+    offsets = relay_offsets(idx, TINY)  # each person's own relay points
+    assert meta["shadow_relay"] == "per-person" and offsets is not None
     again = SceneBuilder(dcfg, plan(dcfg)[0], out / "data").rerender(
-        [TINY.transport_people + k], settings, np.asarray(report["spot"]["aim"]), ("nlos_shadow",))["nlos_shadow"][0]
+        idx, settings, np.asarray(report["spot"]["aim"]), ("nlos_shadow",), offsets)["nlos_shadow"][0]
     np.testing.assert_allclose(sh[k], again, rtol=2e-3, atol=2e-3 * np.abs(again).max())
+
+
+def test_a_fit_refused_before_any_person_leaves_nothing(room_dir, tmp_path, monkeypatch, capsys):
+    """A fit refused after its room step, before any person is rendered, removes what it wrote, so
+    that the corrected rerun (other settings) is not refused (issue 36, item 4); one refused with
+    people rendered keeps them for --resume."""
+    import nlos_spotlight.fit.run as run
+    from nlos_spotlight.errors import NlosError
+
+    def refuse(dcfg, data, workers, progress):
+        raise NlosError("camera: sees no geometry")
+
+    monkeypatch.setattr(run, "render_people", refuse)
+    _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "m"), "--preset", "tiny", "--quiet"],
+           "sees no geometry", "nothing was kept")
+    assert not (tmp_path / "m").exists()
+
+    def half(dcfg, data, workers, progress):
+        (data / "scenes").mkdir(parents=True)
+        (data / "scenes" / "sample-00000.npz").write_bytes(b"finished work")
+        raise NlosError("a rendering process failed")
+
+    monkeypatch.setattr(run, "render_people", half)
+    _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "m"), "--preset", "tiny", "--quiet"], "failed")
+    assert (tmp_path / "m" / "data" / "scenes" / "sample-00000.npz").exists()
+
+
+def test_generate_refuses_a_bad_room_or_family_before_writing(tmp_path, capsys):
+    """``families: [nope]`` and ``room: /etc`` are refused with nothing written (issue 36, item 4)."""
+    (tmp_path / "fam.yaml").write_text("families: [nope]\n")
+    (tmp_path / "room.yaml").write_text(f"room: {tmp_path / 'elsewhere'}\n")
+    _fails(capsys, ["generate", str(tmp_path / "fam.yaml"), "--out", str(tmp_path / "a"), "--quiet"], "nope")
+    _fails(capsys, ["generate", str(tmp_path / "room.yaml"), "--out", str(tmp_path / "b"), "--quiet"], "elsewhere")
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
 
 
 def test_projector_that_lights_nothing_in_view_is_refused(room_dir, tmp_path, capsys):

@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 import torch
 
-import nlos_spotlight.render.transport as transport
 from nlos_spotlight.render.person import Person
 from nlos_spotlight.render.transport import Renderer, RenderSettings
 from nlos_spotlight.scene.format import Ambient
@@ -36,14 +35,11 @@ def setup():
 
 
 def _render(sc, person, settings, seed=None, components=("nlos", "nlos_ambient")):
-    old = transport.FOOTPRINT_SEED
-    transport.FOOTPRINT_SEED = old if seed is None else seed
-    try:
-        r = Renderer(sc, settings, aim_points=SPOT_TARGET[None])
-        with torch.no_grad():
-            out = r.render(r.spot_vector(0), person, components=components)
-    finally:
-        transport.FOOTPRINT_SEED = old
+    if seed is not None:
+        settings = dataclasses.replace(settings, footprint_seed=seed)
+    r = Renderer(sc, settings, aim_points=SPOT_TARGET[None])
+    with torch.no_grad():
+        out = r.render(r.spot_vector(0), person, components=components)
     return {c: out[c].numpy() for c in components}
 
 

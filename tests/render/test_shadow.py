@@ -40,3 +40,32 @@ def test_shadow_needs_the_body_in_the_way():
     assert float(far["nlos_shadow"].abs().max()) == 0.0
     lost = float(near["nlos_shadow"].sum())
     assert lost < 0 and abs(lost) < 0.2 * float(near["nlos"].sum())
+
+
+def test_relay_offsets_are_draws_of_one_estimate():
+    """A call's ``relay_offset`` is the renderer's setting for that call, and the relay sets of
+    many offsets average toward the many-point shadow: their error is noise, not a fixed bias
+    (statistical: the mean of 8 sets at most 0.6 of one set's error; 1/sqrt(8) = 0.35)."""
+    sc = corner_scene("diffuse_corner", 8)
+    base = RenderSettings(pixel_samples=1, transport_pixel_samples=1, spot_samples=32, person_samples=128,
+                          shadow_samples=96, dtype="float64")
+    person = Person.from_mesh(sc.human.mesh, sc.human.albedo, 128)
+
+    def shadow(settings, offset=None):
+        r = Renderer(sc, settings, aim_points=SPOT_TARGET[None])
+        with torch.no_grad():
+            return r.render(r.spot_vector(0), person, components=("nlos_shadow",), relay_offset=offset)[
+                "nlos_shadow"].numpy()
+
+    r = Renderer(sc, base, aim_points=SPOT_TARGET[None])
+    with torch.no_grad():
+        per_call = [r.render(r.spot_vector(0), person, components=("nlos_shadow",), relay_offset=o)["nlos_shadow"]
+                    .numpy() for o in (0.3, 0.7, 0.3)]
+    assert np.array_equal(per_call[0], per_call[2])
+    assert np.array_equal(per_call[1], shadow(RenderSettings(**{**base.__dict__, "relay_offset": 0.7})))
+    ref = shadow(RenderSettings(**{**base.__dict__, "shadow_samples": 96 * 64}))
+    sets = [shadow(base, (k + 0.5) / 8) for k in range(8)]
+    one = np.mean([np.linalg.norm(s - ref) for s in sets])
+    mean = np.linalg.norm(np.mean(sets, 0) - ref)
+    print(f"one set {one / np.linalg.norm(ref):.3f}, mean of 8 {mean / np.linalg.norm(ref):.3f}")
+    assert 0.02 * np.linalg.norm(ref) < one and mean < 0.6 * one
