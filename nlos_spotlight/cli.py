@@ -122,6 +122,14 @@ def cmd_verify(args: argparse.Namespace) -> None:
     data = Path(args.data_dir)
     if not data.is_dir():
         raise NlosError(f"{data}: no such dataset directory")
+    if (data / "fit.json").is_file():  # a room model: its rendered people
+        data = data / "data"
+    if not (data / "manifest.json").exists():
+        if not (data / "config.json").exists():
+            raise NlosError(f"{data}: not a dataset (no config.json or manifest.json); give a directory "
+                            "that nlos generate or nlos fit wrote")
+        raise NlosError(f"{data}: an unfinished dataset (no manifest.json yet); rerun the same nlos generate "
+                        "command to finish it")
     problems, n = dataset_problems(data, shapes=not args.digests_only)
     for path, why in problems:
         print(f"bad: {path}: {why}", file=sys.stderr)
@@ -358,7 +366,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "compiled pair loops (render/pair_loops.py) serve instead and this changes nothing")
     g.set_defaults(func=cmd_generate)
     v = sub.add_parser("verify", help="check a dataset: every file's digest and every array's shape")
-    v.add_argument("data_dir", help="dataset directory from nlos generate")
+    v.add_argument("data_dir", help="dataset directory from nlos generate (or a room model from nlos fit)")
     v.add_argument("--digests-only", action="store_true", help="skip reading the arrays (faster)")
     v.set_defaults(func=cmd_verify)
     t = sub.add_parser("train", help="train the IEN and the NLOS network end to end (torchrun for several processes)")

@@ -24,6 +24,18 @@ def _writable_parent(path: Path, flag: str) -> None:
         raise NlosError(f"{flag}: {path} lies under {parent}, which is a file, not a directory")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise NlosError(f"{flag}: cannot create {path} (no permission to write in {parent})")
+    _probe(parent, flag, path)
+
+
+def _probe(directory: Path, flag: str, path: Path) -> None:
+    """Create and remove an entry in ``directory``: permission bits say yes to root even where the
+    file system says no (``/proc``, a read-only mount)."""
+    import tempfile
+
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".nlos-probe-", dir=directory))
+    except OSError as exc:
+        raise NlosError(f"{flag}: cannot create {path} ({exc.strerror or type(exc).__name__} in {directory})") from None
 
 
 def output_file(path: str | Path, flag: str) -> Path:
@@ -45,6 +57,7 @@ def output_dir(path: str | Path, flag: str) -> Path:
     if path.is_dir():
         if not os.access(path, os.W_OK | os.X_OK):
             raise NlosError(f"{flag}: cannot write in {path} (no permission)")
+        _probe(path, flag, path)
         return path
     _writable_parent(path, flag)
     return path

@@ -172,6 +172,19 @@ def _projector_beside(camera: Camera) -> np.ndarray:
     return camera.position + PROJECTOR_OFFSET_M[0] * right + np.array([0.0, 0.0, PROJECTOR_OFFSET_M[1]])
 
 
+ROOM_SPAN_M = 200.0
+"""Largest extent a room is taken to have in meters: a scan over it is in other units."""
+
+
+def check_room_units(mesh, path: Path) -> None:
+    """Refuse a room whose extent says it is not in meters (a scan in millimetres or centimetres)."""
+    span = float(np.ptp(mesh.vertices, axis=0).max())
+    if span > ROOM_SPAN_M:
+        mm = abs(np.log(span * 1e-3 / 6.0)) < abs(np.log(span * 1e-2 / 6.0))  # the unit that makes a ~6 m room
+        hint = "millimetres? scale it by 0.001" if mm else "centimetres? scale it by 0.01"
+        raise NlosError(f"{path}: the room spans {span:.0f} units; expected meters (a scan in {hint})")
+
+
 def load_setup(path: str | Path, camera_position=None, camera_look_at=None, projector_position=None,
                up: str | None = None) -> SpotlightSetup:
     """Geometry, camera and projector from a scene directory or a bare mesh (see module docstring).
@@ -201,6 +214,7 @@ def load_setup(path: str | Path, camera_position=None, camera_look_at=None, proj
         camera, cam_src, projector, proj_src = None, "default", None, "default"
     else:
         raise NlosError(f"{path}: no such scene directory or mesh file")
+    check_room_units(mesh, path)
     engine = RayEngine(mesh.vertices, mesh.faces)
     if camera_position is not None:
         fov, cam_up = (camera.fov_deg, camera.up) if camera is not None else (DEFAULT_FOV_DEG, (0, 0, 1))

@@ -147,6 +147,34 @@ def check_hidden(engine, camera: Camera, projector: Projector, region: HiddenReg
     return rec
 
 
+NEAR_WALL_M = 0.75
+"""A camera whose view is mostly nearer than this faces a wall, not a room."""
+
+
+def view_depth(engine, camera: Camera) -> float:
+    """Median distance (m) to what the camera's pixels see (infinity if they see nothing)."""
+    from ..render.camera import pixel_rays
+
+    dirs, origin = pixel_rays(camera, 1)
+    dirs = dirs.reshape(-1, 3)
+    hits = engine.first_hit(np.broadcast_to(origin, dirs.shape).copy(), dirs)
+    if not hits.hit.any():
+        return float("inf")
+    pts = engine.surface_point(hits.face[hits.hit], hits.bary[hits.hit])
+    return float(np.median(np.linalg.norm(pts - origin, axis=1)))
+
+
+def check_camera_inside(mesh, camera: Camera, margin: float = 0.05) -> None:
+    """Refuse a camera outside the scan's extent: it would photograph the outside of the walls, and
+    the hidden-region search would be blamed for it."""
+    lo, hi = mesh.vertices.min(0) - margin, mesh.vertices.max(0) + margin
+    pos = np.asarray(camera.position, np.float64)
+    if (pos < lo).any() or (pos > hi).any():
+        box = ", ".join(f"{a} {lo[i] + margin:.2f}..{hi[i] - margin:.2f}" for i, a in enumerate("xyz"))
+        raise NlosError(f"camera at {np.round(pos, 3).tolist()}: outside the scanned room ({box} m), behind its "
+                        "walls; place it inside (--camera-position)")
+
+
 def check_projector_sees(engine, camera: Camera, position: np.ndarray) -> None:
     """Refuse a projector that can light none of what the camera photographs (every spot's
     light would be invisible: the fit would train on blank photographs)."""
@@ -233,6 +261,14 @@ def default_region(scene: Scene, engine, max_side: float = 4.0, spacing: float =
             if best_key is None or keys[k] > best_key:
                 best, best_key = (gx[i[k]], gy[j[k]], a * spacing, b * spacing), keys[k]
     if best is None:
+        depth = view_depth(engine, scene.camera)
+        if depth == float("inf"):
+            raise NlosError(f"camera at {np.round(scene.camera.position, 3).tolist()}: sees none of the scan; turn it "
+                            "toward the room (--camera-look-at)")
+        if depth < NEAR_WALL_M:  # the camera faces a wall: that, not the region, is what to change
+            raise NlosError(f"camera at {np.round(scene.camera.position, 3).tolist()}: faces a surface a median "
+                            f"{depth:.2f} m away (behind or against a wall?); move or turn it (--camera-position, "
+                            "--camera-look-at)")
         raise NlosError(f"no floor area of at least {MIN_REGION_SIDE_M} m x {MIN_REGION_SIDE_M} m is out of the "
                         "camera's view and the projector's beam and free to stand in; give --hidden-region "
                         "XMIN,YMIN,XMAX,YMAX or turn the camera")
@@ -274,6 +310,7 @@ def room_setup(source: str | Path, resolution: int, camera_position=None, camera
     elif region is not None:
         sources["hidden_region"] = "scene"
     scene = Scene(list(shapes), dict(materials), camera, proj, ambient=ambient, hidden_region=region, sensor=sensor)
+    check_camera_inside(setup.mesh, camera)
     if region is None:
         scene.hidden_region = HiddenRegion(np.zeros(2), np.ones(2), floor_z)  # the floor height, for the search
         scene.hidden_region = default_region(scene, setup.engine)

@@ -227,7 +227,7 @@ def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = F
         render_people(dataset_config(cfg, out / "room", extra), out / "data", cfg.workers, progress)
         clock.lap("generate_s")
     except NlosError as exc:
-        if fresh and not _has_people(out):  # refused before any work worth keeping: the corrected rerun starts clean
+        if fresh and out.exists() and not _has_people(out):  # no work worth keeping: the corrected rerun starts clean
             shutil.rmtree(out, ignore_errors=True)
             raise NlosError(f"{exc} (nothing was kept in {out})") from None
         raise

@@ -31,6 +31,8 @@ def load_mesh(path: str | Path, where: str | None = None) -> TriMesh:
         raise NlosError(f"{where}: cannot read mesh {path.name}: {exc}".splitlines()[0]) from None
     if not isinstance(tm, trimesh.Trimesh):
         raise NlosError(f"{where}: {path.name} holds no triangle mesh")
+    if len(tm.faces) == 0:
+        _no_faces(path, where)
     vertices = np.asarray(tm.vertices, dtype=np.float64)
     faces = np.asarray(tm.faces, dtype=np.int64)
     vcol = fcol = None
@@ -42,6 +44,21 @@ def load_mesh(path: str | Path, where: str | None = None) -> TriMesh:
     mesh = TriMesh(vertices, faces, vcol, fcol)
     validate_mesh(mesh, where)
     return mesh
+
+
+def _no_faces(path: Path, where: str) -> None:
+    """Refuse a file without triangles, saying whether it is a point cloud (a scan not yet meshed)."""
+    import trimesh
+
+    try:
+        raw = trimesh.load(path, process=False, skip_materials=True)
+        points = len(raw.vertices) if isinstance(raw, trimesh.PointCloud) else 0
+    except Exception:
+        points = 0
+    if points:
+        raise NlosError(f"{where}: {path.name} is a point cloud ({points} points, no triangles); mesh the scan "
+                        "first (e.g. Poisson surface reconstruction) and give the triangle mesh")
+    raise NlosError(f"{where}: {path.name} holds no triangles")
 
 
 def validate_mesh(mesh: TriMesh, where: str) -> None:
