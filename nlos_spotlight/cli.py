@@ -38,6 +38,12 @@ def cmd_render(args: argparse.Namespace) -> None:
     out = output_file(args.out, "--out")
     if out.suffix != ".npy":
         raise NlosError(f"--out: expected a .npy path, got {out}")
+    if not 0 <= args.seed < 2 ** 63:
+        raise NlosError(f"--seed: expected an integer from 0 to 2^63 - 1, got {args.seed}")
+    if args.burst is not None and args.noise != "sensor":
+        raise NlosError("--burst: frames are averaged only in a sensor capture; add --noise sensor")
+    if args.burst is not None and not 1 <= args.burst <= 1000:
+        raise NlosError(f"--burst: expected a frame count from 1 to 1000, got {args.burst}")
     base = RENDER_PRESETS[args.preset]  # the flags' defaults: one place, render/settings.py
     counts = {"pixel_samples": "pixel_samples", "transport_samples": "transport_pixel_samples",
               "person_samples": "person_samples", "spot_samples": "spot_samples"}
@@ -267,6 +273,8 @@ def cmd_predict(args: argparse.Namespace) -> None:
     models = load_trained(args.checkpoint)
     if args.burst is not None and args.burst < 1:
         raise NlosError(f"--burst: expected a positive frame count, got {args.burst}")
+    if args.max_rows < 0:
+        raise NlosError(f"--max-rows: expected a count of at least 0, got {args.max_rows}")
     loaded = load_frames(args.inputs, models.image_shape, args.linear, args.fps)
     small = [hw for hw in loaded.native_shapes if hw[0] < models.image_shape[0] or hw[1] < models.image_shape[1]]
     if small:
@@ -323,8 +331,15 @@ def cmd_predict(args: argparse.Namespace) -> None:
         console.print(f"wrote {args.plot}")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with every other error's form: one line (``--help`` still prints the usage)."""
+
+    def error(self, message: str):
+        self.exit(2, f"error: {self.prog}: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="nlos", description="NLOS human localization with a projector spotlight")
+    p = _Parser(prog="nlos", description="NLOS human localization with a projector spotlight")
     sub = p.add_subparsers(dest="command", required=True)
     from .render.settings import RENDER_PRESETS
 

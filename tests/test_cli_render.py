@@ -120,9 +120,11 @@ def test_bad_paths_and_values_name_themselves(tmp_path, capsys, monkeypatch):
     cases = [(["--out", str(tmp_path / "a_dir.npy")], "is a directory"),
              (["--out", str(tmp_path / "file" / "x.npy")], "which is a file"),
              (["--out", str(tmp_path / "x.npy"), "--pixel-samples", "0"], "--pixel-samples"),
-             (["--out", str(tmp_path / "x.npy"), "--spot-samples", "-3"], "--spot-samples")]
-    if os.geteuid() != 0:  # root may write anywhere
-        cases.append((["--out", "/proc/x.npy"], "/proc/x.npy"))
+             (["--out", str(tmp_path / "x.npy"), "--spot-samples", "-3"], "--spot-samples"),
+             (["--out", str(tmp_path / "x.npy"), "--seed", "-1"], "--seed"),  # issue 36 item 16: before rendering
+             (["--out", str(tmp_path / "x.npy"), "--burst", "0", "--noise", "sensor"], "--burst"),
+             (["--out", str(tmp_path / "x.npy"), "--burst", "4"], "--noise sensor"),
+             (["--out", "/proc/x.npy"], "/proc/x.npy")]  # probed: permission bits let root through
     for extra, words in cases:
         assert main(base + extra) == 2
         err = capsys.readouterr().err.strip()
@@ -138,6 +140,20 @@ def test_bad_paths_and_values_name_themselves(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("NLOS_DEBUG", "1")
     with pytest.raises(NlosError):
         main(base + ["--out", str(tmp_path / "a_dir.npy")])
+
+
+def test_argparse_errors_are_one_line(capsys):
+    """A bad choice or number is one line, as every other error (issue 36, item 17)."""
+    import pytest
+
+    from nlos_spotlight.cli import main
+
+    for argv, words in ((["fit", "x", "--out", "y", "--people", "abc"], "--people"),
+                        (["predict", "x", "--backend", "tensorrt"], "tensorrt"), (["nope"], "nope")):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        err = capsys.readouterr().err.strip()
+        assert exc.value.code == 2 and err.startswith("error:") and "\n" not in err and words in err, err
 
 
 def test_render_preset_sets_the_sample_counts(tmp_path):

@@ -286,7 +286,14 @@ def expand_inputs(items: list[str]) -> list[Path]:
             files += found
         else:
             raise NlosError(f"{item}: file not found")
-    return sorted(dict.fromkeys(files), key=_natural_key)
+    seen: dict[Path, int] = {}
+    for f in files:
+        seen[f.resolve()] = seen.get(f.resolve(), 0) + 1
+    twice = [(f, n) for f, n in seen.items() if n > 1]
+    if twice:
+        f, n = twice[0]
+        raise NlosError(f"{f}: given {n} times; give each frame once (a burst is that many different photographs)")
+    return sorted(files, key=_natural_key)
 
 
 def _check_finite(a: np.ndarray, source: str) -> None:

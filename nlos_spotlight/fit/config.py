@@ -89,6 +89,8 @@ class FitConfig:
             raise NlosError(f"--clothing: expected 'camera' or 'dataset', got {self.clothing!r}")
         if not 0 <= self.pixel_footprint <= 64 or isinstance(self.pixel_footprint, bool):
             raise NlosError(f"fit: pixel_footprint must be an integer from 0 (off) to 64, got {self.pixel_footprint!r}")
+        if self.workers > MAX_WORKERS:
+            raise NlosError(f"--workers: at most {MAX_WORKERS} processes (each holds a room's renderer), got {self.workers}")
         if self.people > 100_000 or self.resolution > 256 or self.burst_frames > 1000:
             raise NlosError(f"fit: absurd size (people {self.people}, resolution {self.resolution}, "
                             f"burst {self.burst_frames})")
@@ -122,6 +124,10 @@ class FitConfig:
         did not have yet takes the value that version used (:data:`BEFORE`), not today's default."""
         fields = {k: v for k, v in settings.items() if k in cls.__dataclass_fields__}
         return cls(**{**BEFORE, **fields})
+
+
+MAX_WORKERS = 256
+"""Most rendering processes a fit starts (each holds about 1 GB: the room's renderer)."""
 
 
 BEFORE = {"capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "shadow_samples": 0,

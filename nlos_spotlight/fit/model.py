@@ -55,10 +55,31 @@ def load_room_model(path: str | Path) -> RoomModel | None:
         report = json.loads(rep.read_text())
         c, r, s = report["capture"], report["room"], report["spot"]
         int(c["burst_frames"]), float(c["exposure_s"]), int(s["face"]), float(s["pan_deg"]), float(s["tilt_deg"])
-        [float(v) for v in (*r["hidden_region"]["min"], *r["hidden_region"]["max"], *r["camera"]["position"],
-                            *r["camera"]["look_at"])]
+        hr, cam = r["hidden_region"], r["camera"]
+        numbers = [float(v) for v in (*hr["min"], *hr["max"], *cam["position"], *cam["look_at"])]
     except FileNotFoundError:
         raise NlosError(f"{p}: the fit has not finished (no report.json); rerun nlos fit with --resume") from None
     except (json.JSONDecodeError, KeyError, TypeError, ValueError):
         raise NlosError(f"{rep}: corrupted or not a room model report") from None
+    problem = _report_problem(c, s, numbers)
+    if problem:
+        raise NlosError(f"{rep}: {problem} (edited or damaged; fit the room again)")
     return RoomModel(p, report)
+
+
+def _report_problem(capture: dict, spot: dict, numbers: list[float]) -> str | None:
+    """What makes a parsed ``report.json`` impossible for a fit to have written, or None."""
+    if not all(np.isfinite(numbers)) or max(abs(v) for v in numbers) > 1e6:
+        return "a non-finite or absurd coordinate in the room's camera or hidden region"
+    lo, hi = np.asarray(numbers[:2]), np.asarray(numbers[2:4])
+    if len(numbers) != 10 or not (hi > lo).all():
+        return "the hidden region's min and max are not a box"
+    if np.allclose(numbers[4:6], numbers[7:9]):
+        return "the camera looks straight up or down (its look_at is above its position)"
+    if not isinstance(capture["burst_frames"], int) or not 1 <= capture["burst_frames"] <= 1000:
+        return f"burst_frames must be an integer from 1 to 1000, got {capture['burst_frames']!r}"
+    if not 0 < float(capture["exposure_s"]) <= 3600:
+        return f"exposure_s must be a positive number of seconds, got {capture['exposure_s']!r}"
+    if not all(np.isfinite([float(spot["pan_deg"]), float(spot["tilt_deg"])])):
+        return "the spot's pan and tilt are not finite"
+    return None

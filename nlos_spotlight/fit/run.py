@@ -18,6 +18,7 @@ Steps, each resumable (a rerun with ``--resume`` skips what is finished and cont
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import multiprocessing as mp
@@ -137,7 +138,7 @@ def check_out(out: Path, record: dict, resume: bool) -> None:
         if diff:
             raise NlosError(f"{out} holds a fit with other settings (differs in: {', '.join(diff)})")
         return
-    if out.exists() and any(out.iterdir()):
+    if out.exists() and any(p.name != LOCK for p in out.iterdir()):
         raise NlosError(f"--out: {out} exists and is not a room model; choose an empty or new directory")
 
 
@@ -203,7 +204,6 @@ def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = F
              people_from: Path | None = None) -> dict:
     """Run every step (module docstring); returns ``report.json``'s content. ``people_from``: a room
     model of the same room whose rendered people this fit trains on (:func:`reuse_people`)."""
-    from ..console import console
     from ..data.generate import versions
 
     out = Path(out)
@@ -213,8 +213,67 @@ def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = F
         from .spot import check_ien_run
 
         check_ien_run(cfg.checkpoint)
-    check_out(out, record, resume)
-    fresh = not (out / "fit.json").exists()
+    if out.exists() and not out.is_dir():
+        raise NlosError(f"--out: {out} is a file, not a directory")
+    existed = out.exists()
+    with out_lock(out):  # first: a fit running in ``out`` is named as such, not as a stranger's files
+        try:
+            check_out(out, record, resume)
+        except BaseException:
+            _clear(out, existed)
+            raise
+        fresh = not (out / "fit.json").exists()
+        return _fit_steps(room, out, cfg, flags, record, (fresh, existed), progress, people_from)
+
+
+def _clear(out: Path, existed: bool, everything: bool = False) -> None:
+    """Remove what a refused fit wrote: ``out`` itself if it made it; else the lock file, or with
+    ``everything`` all that ``out`` holds (it held nothing when the fit began)."""
+    if not existed:
+        shutil.rmtree(out, ignore_errors=True)
+        return
+    for p in out.iterdir() if everything else [out / LOCK]:
+        if p.is_dir() and not p.is_symlink():
+            shutil.rmtree(p, ignore_errors=True)
+        else:
+            p.unlink(missing_ok=True)
+
+
+LOCK = ".fit.lock"
+"""File in ``--out`` a running fit holds locked (``out_lock``)."""
+
+
+@contextlib.contextmanager
+def out_lock(out: Path):
+    """Hold ``out/.fit.lock`` for the fit's duration; a second fit into ``out`` is refused in one line
+    instead of both writing the same files. The OS drops the lock when the process dies."""
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / LOCK
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        try:
+            import fcntl
+
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except ImportError:  # no advisory locks on this platform: run unguarded
+            pass
+        except OSError:
+            other = os.pread(fd, 32, 0).decode(errors="replace").strip() or "another process"
+            raise NlosError(f"{out}: another nlos fit (pid {other}) is writing to it; wait for it to finish, "
+                            "or choose another --out") from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, str(os.getpid()).encode(), 0)
+        yield
+    finally:
+        os.close(fd)
+
+
+def _fit_steps(room: str, out: Path, cfg: FitConfig, flags: dict, record: dict, state: tuple[bool, bool],
+               progress: bool, people_from: Path | None) -> dict:
+    """Steps 1-5 under the lock (``fit_room``); ``state``: (no fit in ``out`` yet, ``out`` existed)."""
+    from ..console import console
+
+    fresh, existed = state
     try:
         if people_from is not None and fresh:
             reuse_people(people_from, out, record)
@@ -226,10 +285,11 @@ def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = F
         extra = _ien_spot(cfg, out / "room") if cfg.policy == "ien" else []
         render_people(dataset_config(cfg, out / "room", extra), out / "data", cfg.workers, progress)
         clock.lap("generate_s")
-    except NlosError as exc:
-        if fresh and out.exists() and not _has_people(out):  # no work worth keeping: the corrected rerun starts clean
-            shutil.rmtree(out, ignore_errors=True)
-            raise NlosError(f"{exc} (nothing was kept in {out})") from None
+    except BaseException as exc:  # refused input, a hostile file, Ctrl-C
+        if fresh and not _has_people(out):  # no work worth keeping: the corrected rerun starts clean
+            _clear(out, existed, everything=True)
+            if isinstance(exc, NlosError):
+                raise NlosError(f"{exc} (nothing was kept in {out})") from None
         raise
     console.rule("3/5 spot")
     from .spot import policy_face, spot_record

@@ -18,7 +18,6 @@ import csv
 import dataclasses
 import json
 import os
-import random
 import time
 from pathlib import Path
 
@@ -364,7 +363,6 @@ class Trainer:
 
         return {"step": self.step, "ien": self.ien.state_dict(), "net": self.net.state_dict(),
                 "opt": self.opt.state_dict(), "gen": self.gen.get_state(), "torch_rng": torch.get_rng_state(),
-                "numpy_rng": _plain_numpy_state(), "python_rng": random.getstate(),
                 "config": self.cfg.to_dict(), "versions": versions(), "in_features": self.ien.cfg.in_features,
                 "image_shape": list(self.image_shape), "format": CHECKPOINT_FORMAT,
                 "best_val": float(self.best_val), "bad_evals": int(self.bad_evals)}
@@ -387,24 +385,11 @@ class Trainer:
         except Exception as exc:  # torch raises many types on torn or foreign files
             raise NlosError(f"{path}: corrupted or incompatible checkpoint ({type(exc).__name__})") from None
         self.gen.set_state(st["gen"])
-        torch.set_rng_state(st["torch_rng"])
-        np.random.set_state(tuple(st["numpy_rng"]))
-        random.setstate(_tuples(st["python_rng"]))
+        torch.set_rng_state(st["torch_rng"])  # numpy's and Python's global RNGs are never drawn from: not stored
         self.step = st["step"]
         self.best_val, self.bad_evals = st.get("best_val", float("inf")), st.get("bad_evals", 0)
         if self.cfg.spot_steps > 0 and self.step >= self.cfg.spot_steps:
             self.freeze_spots()
-
-
-def _plain_numpy_state() -> tuple:
-    """numpy's global RNG state as plain data (the key array as a list): checkpoints hold no objects."""
-    name, keys, pos, has_gauss, cached = np.random.get_state()
-    return name, np.asarray(keys).tolist(), int(pos), int(has_gauss), float(cached)
-
-
-def _tuples(x):
-    """Python's RNG state as ``random.setstate`` wants it (nested tuples; data loaders may give lists)."""
-    return tuple(_tuples(v) for v in x) if isinstance(x, (list, tuple)) else x
 
 
 def check_config(cfg: TrainConfig) -> None:

@@ -207,7 +207,7 @@ def test_16bit_png_from_pillow(tmp_path):
 
 # ---------------------------------------------------------------- sequences and video
 
-def test_numbered_sequence_plays_in_numeric_order(ckpt, tmp_path):
+def test_numbered_sequence_plays_in_numeric_order(ckpt, tmp_path, capsys):
     seq = tmp_path / "seq"
     seq.mkdir()
     for k in (1, 2, 10, 11, 3):
@@ -221,6 +221,10 @@ def test_numbered_sequence_plays_in_numeric_order(ckpt, tmp_path):
     assert main(["predict", str(ckpt), str(seq), "--csv", str(tmp_path / "o.csv")]) == 0
     rows = list(csv.DictReader((tmp_path / "o.csv").open()))
     assert [r["source"] for r in rows] == names and rows[0]["x_smooth_m"] != ""  # 5 frames: smoothed
+    # issue 36 item 16: one file four times is not a burst of four, and a negative row count is refused
+    one = str(seq / "frame1.png")
+    _fails(capsys, ["predict", str(ckpt), one, one, one, one, "--burst", "4"], "given 4 times")
+    _fails(capsys, ["predict", str(ckpt), one, "--max-rows", "-1"], "--max-rows")
 
 
 def test_video_through_imageio(ckpt, models, tmp_path, monkeypatch):

@@ -350,3 +350,53 @@ def test_projector_that_lights_nothing_in_view_is_refused(room_dir, tmp_path, ca
     _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "m"), "--projector-position", "0,-1,1",
                     "--preset", "tiny", "--quiet"], "reaches none of the surfaces the camera photographs")
     assert not (tmp_path / "m").exists()
+
+
+def test_a_second_fit_into_the_same_out_is_refused(room_dir, tmp_path, capsys):
+    """While one fit holds ``--out`` (its lock), another is refused in one line naming it (issue 36,
+    item 14); the lock goes with the process, so a later fit proceeds."""
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "m"
+    holder = subprocess.Popen([sys.executable, "-c", (
+        "import sys, time; from pathlib import Path; from nlos_spotlight.fit.run import out_lock\n"
+        f"with out_lock(Path({str(out)!r})):\n    print('locked', flush=True); time.sleep(60)")],
+        stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        _fails(capsys, ["fit", str(room_dir), "--out", str(out), "--preset", "tiny", "--quiet"],
+               "another nlos fit", str(holder.pid))
+        assert out.exists()  # the running fit's directory is left alone
+    finally:
+        holder.kill()
+        holder.wait()
+    time.sleep(0.1)
+    from nlos_spotlight.fit.run import out_lock
+
+    with out_lock(out):  # released with its process
+        pass
+
+
+@pytest.mark.parametrize("edit,words", [
+    (lambda r: r["room"]["hidden_region"].update(min=[float("nan"), 0.0]), "non-finite"),
+    (lambda r: r["capture"].update(burst_frames=0), "burst_frames"),
+    (lambda r: r["capture"].update(exposure_s=-1), "exposure_s"),
+    (lambda r: r["room"]["hidden_region"].update(max=r["room"]["hidden_region"]["min"]), "not a box"),
+])
+def test_a_hand_edited_report_is_refused(fitted, tmp_path, edit, words):
+    """``report.json`` is validated when a room model is loaded (issue 36, item 15); the fit's own loads."""
+    from nlos_spotlight.errors import NlosError
+    from nlos_spotlight.fit.model import load_room_model
+
+    out, _ = fitted
+    assert load_room_model(out).burst_frames == TINY.burst_frames
+    d = tmp_path / "model"
+    d.mkdir()
+    (d / "fit.json").write_text((out / "fit.json").read_text())
+    rep = json.loads((out / "report.json").read_text())
+    edit(rep)
+    (d / "report.json").write_text(json.dumps(rep))  # NaN written as JSON's non-standard NaN, as an editor might
+    with pytest.raises(NlosError, match=words):
+        load_room_model(d)

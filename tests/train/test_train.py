@@ -72,6 +72,26 @@ def test_resume_equals_uninterrupted(toy_scene, tmp_path):
     assert all(torch.equal(a[k], b[k]) for k in a)
 
 
+def test_same_seed_same_checkpoint_bytes(toy_scene, tmp_path):
+    """Two runs of one seed write byte-identical checkpoints, whatever the global numpy and Python
+    RNGs hold (issue 36, item 13: they were stored, unseeded)."""
+    import random
+
+    import numpy as np
+
+    def run(name: str) -> bytes:
+        np.random.seed(len(name) * 7919)
+        random.seed(name)
+        (tmp_path / name).mkdir()
+        tr = Trainer(CFG, [toy_scene()], tmp_path / name)
+        while tr.step < 3:
+            tr.train_step()
+        tr.save(tmp_path / name / "final.pt")  # torch.save names the archive's records after the file
+        return (tmp_path / name / "final.pt").read_bytes()
+
+    assert run("a") == run("bb")
+
+
 def test_two_process_torchrun_gloo(toy_scene, tmp_path):
     rooms = tmp_path / "rooms.pt"
     torch.save([toy_scene(n=16, best=2), toy_scene(n=16, seed=1)], rooms)
