@@ -1,4 +1,6 @@
-"""Property-based fuzzing of what users hand in: scene.json, mesh files, images for ``nlos predict``.
+"""Property-based fuzzing of what users hand in or share: scene.json (mesh names toward and past its
+directory), mesh files, images for ``nlos predict`` (past PIL's pixel limit, float64-wide values),
+a room model's report.json, YAML dataset configs and checkpoints.
 
 Each generated input must end in a result or one NlosError (the CLI's one-line ``error:``), never
 another exception, a hang (hypothesis' deadline) or a file left behind. At least 1,000 inputs a run
@@ -76,23 +78,56 @@ def mutated_scene(draw):
     return d
 
 
+MESH_NAMES = ["wall.ply", "./wall.ply", "sub/../wall.ply", "../wall.ply", "../../x/wall.ply", "/etc/passwd",
+              "/tmp/wall.ply", "..", "", "wall.ply/..", "~/wall.ply", "wall.PLY", "link.ply"]
+"""Mesh names toward and past the scene directory's edge (issue 36, item 2); ``link.ply`` is a
+symlink out of it."""
+
+
+@st.composite
+def named_scene(draw):
+    d = draw(mutated_scene())
+    if draw(st.booleans()) and isinstance(d.get("shapes"), list) and d["shapes"] and isinstance(d["shapes"][0], dict):
+        d["shapes"][0]["mesh"] = draw(st.sampled_from(MESH_NAMES))
+    return d
+
+
 @pytest.fixture(scope="module")
 def scene_dir(tmp_path_factory):
     d = tmp_path_factory.mktemp("fuzz_scene")
     (d / "wall.ply").write_text(WALL)
+    outside = tmp_path_factory.mktemp("outside") / "wall.ply"
+    outside.write_text(WALL)
+    (d / "link.ply").symlink_to(outside)
     return d
 
 
 @FUZZ
-@given(mutated_scene())
-def test_scene_reader(scene_dir, d):
-    from nlos_spotlight.scene.io import load_scene
+@given(named_scene())
+def test_scene_reader(scene_dir, tmp_path_factory, d):
+    """A load ends in one line, or in a scene whose invariants hold, that reads only files inside
+    its directory and that writes back and reads again to the same numbers (a round trip)."""
+    from nlos_spotlight.scene.io import load_scene, save_scene
 
     (scene_dir / "scene.json").write_text(json.dumps(d, allow_nan=True))
     try:
-        load_scene(scene_dir)
+        sc = load_scene(scene_dir)
     except NlosError as exc:
         assert "\n" not in str(exc)
+        return
+    name = d["shapes"][0]["mesh"]
+    assert (scene_dir / name).resolve().parent == scene_dir.resolve(), name  # nothing outside was read
+    cam = sc.camera
+    assert np.isfinite(cam.position).all() and np.isfinite(cam.look_at).all() and 0 < cam.fov_deg < 180
+    assert cam.width >= 1 and cam.height >= 1 and sc.num_faces >= 1
+    for m in sc.materials.values():
+        assert np.all((np.asarray(m.diffuse) >= 0) & (np.asarray(m.diffuse) <= 1))
+    again_dir = tmp_path_factory.mktemp("again")
+    save_scene(sc, again_dir)
+    again = load_scene(again_dir)
+    np.testing.assert_allclose(again.camera.position, cam.position)
+    np.testing.assert_allclose(again.static_mesh()[0].vertices, sc.static_mesh()[0].vertices, rtol=1e-6)
+    assert {k: m.to_dict() for k, m in again.materials.items()} == {k: m.to_dict() for k, m in sc.materials.items()}
 
 
 number = st.one_of(st.floats(-1e6, 1e6), st.sampled_from(["nan", "inf", "-inf", "1e400", "x", ""]))
@@ -145,12 +180,14 @@ def image_file(draw):
     if kind == "npy":
         shape = tuple(draw(st.lists(st.integers(0, 9), min_size=1, max_size=5)))
         dtype = draw(st.sampled_from(["float32", "float64", "int16", "uint8", "bool", "complex64", "float16"]))
-        vals = np.asarray(draw(st.lists(st.floats(allow_nan=True, allow_infinity=True, width=32),
-                                        min_size=1, max_size=16)))
+        vals = np.asarray(draw(st.lists(st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=32),
+                                                  st.sampled_from([1.7e308, -1e300, 3.5e38, 1e-320])),
+                                        min_size=1, max_size=16)))  # float64-wide too: finite, then not in float32
         with np.errstate(invalid="ignore", over="ignore"):
             return ".npy", np.resize(vals, shape).astype(dtype)
     if kind == "png":
-        w, h = draw(st.integers(0, 9)), draw(st.integers(0, 9))
+        big = st.sampled_from([20_000, 65_535, 2 ** 31 - 1])  # past PIL's pixel limit (a decompression bomb)
+        w, h = draw(st.one_of(st.integers(0, 9), big)), draw(st.one_of(st.integers(0, 9), big))
         depth, ctype = draw(st.sampled_from([8, 16, 1, 3])), draw(st.sampled_from([0, 2, 4, 6, 3, 5]))
         raw = draw(st.binary(max_size=400))
         return ".png", _png(w, h, depth, ctype, raw, draw(st.booleans()))
@@ -176,3 +213,128 @@ def test_image_reader(tmp_path, case):
         assert "\n" not in str(exc)
     assert set(tmp_path.iterdir()) == before
 
+
+
+REPORT = {
+    "capture": {"burst_frames": 4, "exposure_s": 0.05},
+    "spot": {"face": 3, "pan_deg": 6.3, "tilt_deg": 1.5},
+    "room": {"hidden_region": {"min": [-0.5, -0.1], "max": [2.1, 1.1], "floor_z": -1.3},
+             "camera": {"position": [0.35, -0.3, 0.09], "look_at": [0.9, -2.0, -0.3]}},
+}
+REPORT_PATHS = list(_paths(REPORT))
+
+
+@st.composite
+def mutated_report(draw):
+    d = copy.deepcopy(REPORT)
+    for _ in range(draw(st.integers(1, 2))):
+        path = draw(st.sampled_from(REPORT_PATHS))
+        parent = d
+        try:
+            for k in path[:-1]:
+                parent = parent[k]
+            if draw(st.booleans()):
+                parent[path[-1]] = draw(json_value)
+            elif isinstance(parent, dict):
+                parent.pop(path[-1], None)
+        except (KeyError, IndexError, TypeError):
+            pass
+    return d
+
+
+@FUZZ
+@given(mutated_report())
+def test_room_model_report_reader(tmp_path_factory, d):
+    """A hand-edited ``report.json`` loads into a room model whose numbers a photograph can use, or
+    is refused in one line (issue 36, item 15)."""
+    from nlos_spotlight.fit.model import load_room_model
+
+    m = tmp_path_factory.mktemp("model")
+    (m / "fit.json").write_text("{}")
+    (m / "report.json").write_text(json.dumps(d, allow_nan=True))
+    try:
+        room = load_room_model(m)
+    except NlosError as exc:
+        assert "\n" not in str(exc)
+        return
+    assert 1 <= room.burst_frames <= 1000 and 0 < room.exposure_s
+    xy = room.room_xy(np.array([[0.0, 0.0], [1.0, -1.0]]))
+    assert np.isfinite(xy).all()
+    assert room.describe()
+
+
+yaml_scalar = st.one_of(st.integers(-10**6, 10**6), st.floats(allow_nan=True, allow_infinity=True),
+                        st.text(max_size=8), st.booleans(), st.none())
+FIELDS = ["seed", "train_scenes", "val_scenes", "test_scenes", "samples_per_scene", "resolution", "los_vertices",
+          "person_samples", "pixel_footprint", "families", "room", "base", "nope", "body_faces", "frame_rate_hz"]
+
+
+@st.composite
+def yaml_config(draw):
+    if draw(st.integers(0, 4)) == 0:
+        return draw(st.sampled_from(["a: &x [1, 2]\nb: *x\n", "[1, 2", "- 1\n- 2\n", "{", "base: tiny\n",
+                                     "families: [nope]\n", "\t", ""]))
+    lines = []
+    for k in draw(st.lists(st.sampled_from(FIELDS), max_size=4, unique=True)):
+        v = draw(st.one_of(yaml_scalar, st.lists(yaml_scalar, max_size=3)))
+        lines.append(f"{k}: {json.dumps(v, allow_nan=True)}")
+    return "\n".join(lines) + "\n"
+
+
+@FUZZ
+@given(yaml_config())
+def test_dataset_config_reader(tmp_path, text):
+    """A YAML config gives a valid ``DatasetConfig`` or one line (aliases, types, ranges)."""
+    from nlos_spotlight.data.config import load_config, validate
+
+    path = tmp_path / "c.yaml"
+    path.write_text(text)
+    try:
+        cfg = load_config(str(path))
+    except NlosError as exc:
+        assert "\n" not in str(exc)
+        return
+    validate(cfg, "again")  # what loads is valid
+    assert cfg.name == "c" and cfg.resolution >= 1
+
+
+@st.composite
+def checkpoint_bytes(draw):
+    import io
+
+    import torch
+
+    kind = draw(st.sampled_from(["torch", "bytes", "truncated"]))
+    if kind == "bytes":
+        return draw(st.binary(max_size=200))
+    obj = draw(st.sampled_from([
+        {"ien": {}, "net": {}, "config": {}}, [1, 2], {"net": torch.zeros(2)}, 3.5,
+        {"ien": {"w": torch.ones(1)}, "net": {"w": torch.ones(1)}, "config": {"model": "nope"}},
+        {"opt": np.zeros(2)}, {"fn": np.sum}, {"cls": _a_class()}]))
+    buf = io.BytesIO()
+    torch.save(obj, buf)
+    data = buf.getvalue()
+    return data[:draw(st.integers(0, len(data)))] if kind == "truncated" else data
+
+
+def _a_class():
+    import collections
+
+    return collections.OrderedDict  # a class: a global that safe loading must refuse
+
+
+@FUZZ
+@given(checkpoint_bytes())
+def test_checkpoint_reader(tmp_path, data):
+    """A checkpoint file loads to a dictionary of plain data, or one line (torn, foreign, or
+    holding Python objects): nothing in it runs (issue 36, item 1)."""
+    from nlos_spotlight.train.checkpoint import load_trained, read_checkpoint
+
+    path = tmp_path / "final.pt"
+    path.write_bytes(data)
+    try:
+        st_ = read_checkpoint(path)
+        assert isinstance(st_, dict)
+        load_trained(path)
+    except NlosError as exc:
+        assert "\n" not in str(exc)
