@@ -127,6 +127,10 @@ class SceneBuilder:
             (self.dir / "done.json").unlink(missing_ok=True)
         return not bad
 
+    def room_scene(self):
+        """The room's scene without a person (what ``world`` in :meth:`rerender` departs from)."""
+        return self._room()[0]
+
     def _room(self):
         """The scene without a person and its family: the config's given room, else a procedural one."""
         if self.cfg.room:
@@ -200,12 +204,14 @@ class SceneBuilder:
 
     def rerender(self, indices: list[int], settings: RenderSettings, aim: np.ndarray,
                  components: tuple[str, ...] = ("nlos", "nlos_ambient"),
-                 relay_offsets: list[float] | None = None) -> dict[str, np.ndarray]:
+                 relay_offsets: list[float] | None = None, world=None) -> dict[str, np.ndarray]:
         """Samples ``indices`` of this room rendered again, lit by one spot aimed at ``aim`` (3,), with
         other ``settings`` or components (convergence and robustness studies): component name ->
         (len(indices), H, W, 3) float64. The people are the dataset's (the same seeded draws);
-        ``relay_offsets``: each one's ``nlos_shadow`` relay offset (``settings.relay_offset`` if None)."""
-        scene, _ = self._room()
+        ``relay_offsets``: each one's ``nlos_shadow`` relay offset (``settings.relay_offset`` if None);
+        ``world``: a scene to render them in instead of the room (``world.mismatch``: the room as it
+        differs from its scan), the same people at the same places."""
+        scene = self._room()[0] if world is None else world
         specs = self._specs(scene)
         r = Renderer(scene, settings, aim_points=np.asarray(aim, np.float64)[None])
         y = r.spot_vector(0)
