@@ -89,3 +89,34 @@ def test_a_scan_at_1e200_gets_one_line_and_no_warning(tmp_path, capsys):
         warnings.simplefilter("error")
         _fails(capsys, ["fit", str(tmp_path / "big.ply"), "--out", str(tmp_path / "m"), "--preset", "tiny",
                         "--quiet"], "expected meters")
+
+
+def test_ctrl_c_is_one_line_with_the_resume_hint(monkeypatch, capsys):
+    """Item 5: Ctrl-C during a long command exits 130 with one line, not a traceback."""
+    import nlos_spotlight.fit.run as run
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(run, "fit_room", interrupted)
+    assert main(["fit", "scan.ply", "--out", "/tmp/nlos-never-written", "--preset", "tiny", "--quiet"]) == 130
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "interrupted" in err and "--resume" in err, err
+
+
+def test_an_image_past_the_pixel_limit_is_named(tmp_path):
+    """Item 5: an 8-bit PNG past PIL's pixel limit (a decompression bomb) is one line naming it."""
+    import struct
+    import zlib
+
+    from nlos_spotlight.apps.images import load_frames
+    from nlos_spotlight.errors import NlosError
+
+    def chunk(kind, payload):
+        return struct.pack(">I", len(payload)) + kind + payload + struct.pack(">I", zlib.crc32(kind + payload))
+
+    png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 60_000, 60_000, 8, 2, 0, 0, 0))
+           + chunk(b"IDAT", zlib.compress(b"\x00" * 64)) + chunk(b"IEND", b""))
+    (tmp_path / "bomb.png").write_bytes(png)
+    with pytest.raises(NlosError, match="too large"):
+        load_frames([str(tmp_path / "bomb.png")], (4, 4), False)
