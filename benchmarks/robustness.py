@@ -20,7 +20,10 @@ draws for every condition:
   ``camera``: the integrated light and the shadow; ``clothing-dark`` / ``clothing-light``: the
   camera photographs of people dressed in albedo 0.05 / 0.9 (exact: the scattered light is linear
   in it, the shadow does not depend on it); a few people are also rendered again at the fit's own
-  settings, to check they are the dataset's;
+  settings, to check they are the dataset's; diagnostics of the fit's own sampling:
+  ``footprint-offsets`` and ``relay-offsets`` (its pixel offsets or shadow relay points drawn
+  apart), ``relay-averaged`` (its shadow averaged with that second draw: half the Monte Carlo
+  variance) and ``shadow-averaged`` (the camera photographs' shadow averaged with the second draw);
 * ``mitsuba`` (``--mitsuba SPP``): with-minus-without photographs by Mitsuba 3's particle tracer
   at 6 bounces (:func:`mitsuba_people`);
 * ``capture-all``: every capture effect at 1x ``tripod`` together, on the fit's person light;
@@ -58,7 +61,7 @@ from nlos_spotlight.errors import NlosError
 from nlos_spotlight.fit.run import room_builder
 
 COLUMNS = ("room", "reading", "condition", "magnitude", "posture_accuracy", "posture3_accuracy", "error_cm", "people")
-CAMERA_CONDITIONS = ("footprint-offsets", "relay-offsets", "pixel-integrated", "pixel-integrated-2x2", "shadow", "camera", "clothing-dark", "clothing-light",
+CAMERA_CONDITIONS = ("footprint-offsets", "relay-offsets", "relay-averaged", "shadow-averaged", "pixel-integrated", "pixel-integrated-2x2", "shadow", "camera", "clothing-dark", "clothing-light",
                      "all", "capture-all", "camera-mitsuba-people", "mitsuba")
 CLOTHING = {"clothing-dark": 0.05, "clothing-light": 0.9}
 SHADOW_SAMPLES = 1024
@@ -379,6 +382,13 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float]):
     if "relay_shadow" in c:  # the fit's own light, the shadow's relay points drawn apart
         yield "relay-offsets", 1.0, with_person_light(t, room.spot, lit.double().numpy() + c["relay_shadow"],
                                                       amb.double().numpy()), ideal
+        if t.shadow is not None:  # two draws of the shadow averaged: what its Monte Carlo noise costs
+            half = 0.5 * (t.shadow.double().numpy() + c["relay_shadow"])
+            yield "relay-averaged", 1.0, with_person_light(t, room.spot, lit.double().numpy() + half,
+                                                           amb.double().numpy()), ideal
+            half = 0.5 * (c["cam_nlos_shadow"] + c["relay_shadow"])
+            yield "shadow-averaged", 1.0, with_person_light(t, room.spot, lit.double().numpy() + half,
+                                                            amb.double().numpy()), ideal
     yield "shadow", 1.0, with_person_light(t, room.spot, lit.double().numpy() + c["cam_nlos_shadow"],
                                            amb.double().numpy()), ideal
     yield "camera", 1.0, cam(albedo), ideal
