@@ -10,6 +10,23 @@ import torch
 from nlos_spotlight.scene.builders import quad
 from nlos_spotlight.scene.format import Ambient, Camera, Human, Material, Projector, Scene, Shape
 
+SLOW = ("tests/fit/test_fit.py", "tests/train/test_train.py::test_two_process_torchrun_gloo",
+        "tests/train/test_train.py::test_resume_equals_uninterrupted",
+        "tests/train/test_train.py::test_same_seed_same_checkpoint_bytes",
+        "tests/train/test_train.py::test_training_moves_the_spot_to_the_informative_face",
+        "tests/data/test_image_samples.py::test_resume_after_kill_during_images",
+        "tests/data/test_generate.py::test_resume_after_kill", "tests/test_cli_render.py::test_render_hand_written_scene")
+"""Tests left out of ``make test-fast`` besides the Mitsuba cross-checks: end-to-end fits, processes
+killed and resumed, torchrun, training runs of tens of steps, a subprocess render (``make test``
+runs everything)."""
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if item.get_closest_marker("mitsuba") or any(item.nodeid.startswith(s) for s in SLOW):
+            item.add_marker(pytest.mark.slow)
+
+
 TOY_BEST = 5
 """The toy world's best candidate spot."""
 MICRO = dict(name="micro", seed=3, train_scenes=2, val_scenes=0, test_scenes=1, samples_per_scene=3,
