@@ -201,7 +201,7 @@ def world_photographs(room: Room, cache: Path, effect: str, magnitude: float) ->
     from nlos_spotlight.data.store import atomic_npz
     from nlos_spotlight.render.layers import static_layers
     from nlos_spotlight.render.settings import RenderSettings
-    from nlos_spotlight.render.variation import preset
+    from nlos_spotlight.render.variation import layers_arrays, preset
     from nlos_spotlight.world.mismatch import mismatched_world
 
     name = "scan" if magnitude == 0 else f"{effect}-{magnitude:g}"
@@ -220,9 +220,7 @@ def world_photographs(room: Room, cache: Path, effect: str, magnitude: float) ->
     t0 = time.perf_counter()
     got = builder.rerender(room.indices, rs, aim, ("nlos", "nlos_ambient", "nlos_shadow"), world=world)
     L = static_layers(world, aim)
-    out = {"indices": np.asarray(room.indices), **got, "layer_projector": L.projector.numpy(),
-           "layer_aim": L.aim.numpy(), "layer_ambient": L.ambient.numpy(), "layer_factor": np.int64(L.factor),
-           "layer_f_px": np.float64(L.f_px), "layer_depth_m": np.float64(L.depth_m), "aim": aim,
+    out = {"indices": np.asarray(room.indices), **got, **layers_arrays(L, "layer_"), "aim": aim,
            "drawn": np.array(json.dumps(drawn)), "seconds": np.float64(time.perf_counter() - t0)}
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_npz(path, **out)
@@ -232,12 +230,10 @@ def world_photographs(room: Room, cache: Path, effect: str, magnitude: float) ->
 
 def world_test(room: Room, w: dict):
     """``room``'s held-out people as photographed in world ``w`` (:func:`world_photographs`)."""
-    from nlos_spotlight.render.variation import StaticLayers
+    from nlos_spotlight.render.variation import layers_from
 
-    L = StaticLayers(*(torch.as_tensor(w[f"layer_{k}"], dtype=torch.float32) for k in ("projector", "aim", "ambient")),
-                     int(w["layer_factor"]), float(w["layer_f_px"]), float(w["layer_depth_m"]))
     t = with_person_light(room.test, room.spot, w["nlos"] + w["nlos_shadow"], w["nlos_ambient"])
-    return dataclasses.replace(t, layers=L)
+    return dataclasses.replace(t, layers=layers_from(w, "layer_"))
 
 
 def world_conditions(room: Room, cache: Path, magnitudes: list[float]) -> list:

@@ -54,24 +54,24 @@ def _paths(d, prefix=()):
         yield from _paths(v, prefix + (k,))
 
 
-PATHS = list(_paths(SCENE))
-
-
 @st.composite
-def mutated_scene(draw):
-    d = copy.deepcopy(SCENE)
-    for _ in range(draw(st.integers(1, 3))):
-        path = draw(st.sampled_from(PATHS))
+def mutated(draw, base: dict, most: int, actions=("replace", "delete", "extra")):
+    """``base`` with 1 to ``most`` of its key paths replaced by any JSON value, deleted, or given an
+    extra sibling key (``actions``)."""
+    d = copy.deepcopy(base)
+    paths = list(_paths(base))
+    for _ in range(draw(st.integers(1, most))):
+        path = draw(st.sampled_from(paths))
         parent = d
         try:
             for k in path[:-1]:
                 parent = parent[k]
-            action = draw(st.sampled_from(["replace", "delete", "extra"]))
+            action = draw(st.sampled_from(actions))
             if action == "replace":
                 parent[path[-1]] = draw(json_value)
             elif action == "delete" and isinstance(parent, dict):
                 parent.pop(path[-1], None)
-            elif isinstance(parent, dict):
+            elif action == "extra" and isinstance(parent, dict):
                 parent[draw(st.text(max_size=6))] = draw(json_value)
         except (KeyError, IndexError, TypeError):
             pass  # an earlier mutation removed or retyped this path
@@ -86,7 +86,7 @@ symlink out of it."""
 
 @st.composite
 def named_scene(draw):
-    d = draw(mutated_scene())
+    d = draw(mutated(SCENE, 3))
     if draw(st.booleans()) and isinstance(d.get("shapes"), list) and d["shapes"] and isinstance(d["shapes"][0], dict):
         d["shapes"][0]["mesh"] = draw(st.sampled_from(MESH_NAMES))
     return d
@@ -221,29 +221,10 @@ REPORT = {
     "room": {"hidden_region": {"min": [-0.5, -0.1], "max": [2.1, 1.1], "floor_z": -1.3},
              "camera": {"position": [0.35, -0.3, 0.09], "look_at": [0.9, -2.0, -0.3]}},
 }
-REPORT_PATHS = list(_paths(REPORT))
-
-
-@st.composite
-def mutated_report(draw):
-    d = copy.deepcopy(REPORT)
-    for _ in range(draw(st.integers(1, 2))):
-        path = draw(st.sampled_from(REPORT_PATHS))
-        parent = d
-        try:
-            for k in path[:-1]:
-                parent = parent[k]
-            if draw(st.booleans()):
-                parent[path[-1]] = draw(json_value)
-            elif isinstance(parent, dict):
-                parent.pop(path[-1], None)
-        except (KeyError, IndexError, TypeError):
-            pass
-    return d
 
 
 @FUZZ
-@given(mutated_report())
+@given(mutated(REPORT, 2, ("replace", "delete")))
 def test_room_model_report_reader(tmp_path_factory, d):
     """A hand-edited ``report.json`` loads into a room model whose numbers a photograph can use, or
     is refused in one line (issue 36, item 15)."""

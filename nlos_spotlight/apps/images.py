@@ -20,6 +20,7 @@ stretched, so crop to the training aspect first.
 from __future__ import annotations
 
 import glob
+from collections import Counter
 import re
 import struct
 from dataclasses import dataclass, field
@@ -286,10 +287,7 @@ def expand_inputs(items: list[str]) -> list[Path]:
             files += found
         else:
             raise NlosError(f"{item}: file not found")
-    seen: dict[Path, int] = {}
-    for f in files:
-        seen[f.resolve()] = seen.get(f.resolve(), 0) + 1
-    twice = [(f, n) for f, n in seen.items() if n > 1]
+    twice = [(f, n) for f, n in Counter(f.resolve() for f in files).items() if n > 1]
     if twice:
         f, n = twice[0]
         raise NlosError(f"{f}: given {n} times; give each frame once (a burst is that many different photographs)")

@@ -151,17 +151,21 @@ NEAR_WALL_M = 0.75
 """A camera whose view is mostly nearer than this faces a wall, not a room."""
 
 
-def view_depth(engine, camera: Camera) -> float:
-    """Median distance (m) to what the camera's pixels see (infinity if they see nothing)."""
+def camera_hits(engine, camera: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(camera origin (3,), faces (K,), points (K, 3)) of what the camera's pixel centres see."""
     from ..render.camera import pixel_rays
 
     dirs, origin = pixel_rays(camera, 1)
     dirs = dirs.reshape(-1, 3)
     hits = engine.first_hit(np.broadcast_to(origin, dirs.shape).copy(), dirs)
-    if not hits.hit.any():
-        return float("inf")
-    pts = engine.surface_point(hits.face[hits.hit], hits.bary[hits.hit])
-    return float(np.median(np.linalg.norm(pts - origin, axis=1)))
+    face = hits.face[hits.hit]
+    return origin, face, engine.surface_point(face, hits.bary[hits.hit])
+
+
+def view_depth(engine, camera: Camera) -> float:
+    """Median distance (m) to what the camera's pixels see (infinity if they see nothing)."""
+    origin, _, pts = camera_hits(engine, camera)
+    return float(np.median(np.linalg.norm(pts - origin, axis=1))) if len(pts) else float("inf")
 
 
 def check_camera_inside(mesh, camera: Camera, margin: float = 0.05) -> None:
@@ -178,15 +182,9 @@ def check_camera_inside(mesh, camera: Camera, margin: float = 0.05) -> None:
 def check_projector_sees(engine, camera: Camera, position: np.ndarray) -> None:
     """Refuse a projector that can light none of what the camera photographs (every spot's
     light would be invisible: the fit would train on blank photographs)."""
-    from ..render.camera import pixel_rays
-
-    dirs, origin = pixel_rays(camera, 1)
-    dirs = dirs.reshape(-1, 3)
-    hits = engine.first_hit(np.broadcast_to(origin, dirs.shape).copy(), dirs)
-    if not hits.hit.any():
+    origin, face, pts = camera_hits(engine, camera)
+    if len(pts) == 0:
         return  # the camera check names this
-    face = hits.face[hits.hit]
-    pts = engine.surface_point(face, hits.bary[hits.hit])
     tri = engine.vertices[engine.faces[face]]
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     same_side = np.einsum("ij,ij->i", n, position - pts) * np.einsum("ij,ij->i", n, origin - pts) > 0

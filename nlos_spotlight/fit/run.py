@@ -121,11 +121,10 @@ def render_people(dcfg, data: Path, workers: int, progress: bool) -> None:
 
 
 def check_out(out: Path, record: dict, resume: bool) -> None:
-    """Refuse to mix fits: ``out`` holds nothing, or (with ``resume``) a fit with the same settings.
-    Nothing is written here: a fit whose input is refused leaves no directory behind."""
+    """Refuse to mix fits: the directory ``out`` holds nothing but the lock, or (with ``resume``) a fit
+    with the same settings. Nothing is written here (``fit_room`` refused a file ``out`` before its
+    lock, and removes what the lock made when this refuses)."""
     path = out / "fit.json"
-    if out.exists() and not out.is_dir():
-        raise NlosError(f"--out: {out} is a file, not a directory")
     if path.exists():
         try:
             old = json.loads(path.read_text())
@@ -327,7 +326,7 @@ def _fit_steps(room: str, out: Path, cfg: FitConfig, flags: dict, record: dict, 
 
 def _has_people(out: Path) -> bool:
     """Whether ``out`` holds a rendered person (work a failed fit must keep for --resume)."""
-    return (out / "data").is_dir() and any(p.suffix == ".npz" for p in (out / "data").rglob("*.npz"))
+    return any((out / "data").rglob("*.npz"))
 
 
 def _room(room: str, out: Path, cfg: FitConfig, flags: dict, record: dict) -> dict:

@@ -346,15 +346,29 @@ def difference_sigmas(v: CaptureVariation, burst_frames: int, f_px: float, depth
             r2 * v.roll_rad, r2 * v.spot_aim_rad, r2 * v.spot_aim_rad]
 
 
-def save_layers(path, layers: StaticLayers) -> None:
-    """Write ``layers`` as a plain npz (arrays and numbers only: loading runs no code)."""
+def layers_arrays(layers: StaticLayers, prefix: str = "") -> dict:
+    """``layers`` as plain arrays and numbers, each key after ``prefix`` (:func:`layers_from` reads them)."""
     import numpy as np
 
+    return {f"{prefix}projector": layers.projector.cpu().numpy(), f"{prefix}aim": layers.aim.cpu().numpy(),
+            f"{prefix}ambient": layers.ambient.cpu().numpy(), f"{prefix}factor": np.int64(layers.factor),
+            f"{prefix}f_px": np.float64(layers.f_px), f"{prefix}depth_m": np.float64(layers.depth_m)}
+
+
+def layers_from(arrays, prefix: str = "") -> StaticLayers:
+    """The :class:`StaticLayers` of :func:`layers_arrays`' mapping (an open npz or a dict)."""
+    import numpy as np
+
+    t = lambda k: torch.as_tensor(np.asarray(arrays[prefix + k], np.float32))
+    return StaticLayers(t("projector"), t("aim"), t("ambient"), int(arrays[prefix + "factor"]),
+                        float(arrays[prefix + "f_px"]), float(arrays[prefix + "depth_m"]))
+
+
+def save_layers(path, layers: StaticLayers) -> None:
+    """Write ``layers`` as a plain npz (arrays and numbers only: loading runs no code)."""
     from ..data.store import atomic_npz
 
-    atomic_npz(path, projector=layers.projector.cpu().numpy(), aim=layers.aim.cpu().numpy(),
-               ambient=layers.ambient.cpu().numpy(), factor=np.int64(layers.factor),
-               f_px=np.float64(layers.f_px), depth_m=np.float64(layers.depth_m))
+    atomic_npz(path, **layers_arrays(layers))
 
 
 def load_layers(path) -> StaticLayers:
@@ -363,9 +377,7 @@ def load_layers(path) -> StaticLayers:
 
     try:
         with np.load(path, allow_pickle=False) as z:
-            t = lambda k: torch.as_tensor(np.asarray(z[k], np.float32))
-            return StaticLayers(t("projector"), t("aim"), t("ambient"), int(z["factor"]), float(z["f_px"]),
-                                float(z["depth_m"]))
+            return layers_from(z)
     except FileNotFoundError:
         raise NlosError(f"{path}: missing (the room model's static layers)") from None
     except (OSError, KeyError, ValueError, TypeError) as exc:

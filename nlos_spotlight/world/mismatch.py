@@ -71,10 +71,11 @@ def turned_aim(scene: Scene, aim: np.ndarray, angles_rad: np.ndarray) -> np.ndar
     pan, tilt = angles_rad
     d2 = rotation(np.array([tilt, pan, 0.0]), frame) @ d
     mesh = scene.static_mesh()[0]
-    hits = RayEngine(mesh.vertices, mesh.faces).first_hit(proj[None].copy(), (d2 / np.linalg.norm(d2))[None])
+    engine = RayEngine(mesh.vertices, mesh.faces)
+    hits = engine.first_hit(proj[None].copy(), (d2 / np.linalg.norm(d2))[None])
     if not bool(hits.hit[0]):
         return proj + d2  # the turned beam meets nothing: aim where it points, at the same distance
-    return RayEngine(mesh.vertices, mesh.faces).surface_point(hits.face[:1], hits.bary[:1])[0]
+    return engine.surface_point(hits.face[:1], hits.bary[:1])[0]
 
 
 def recoloured(scene: Scene, factor: np.ndarray) -> None:
