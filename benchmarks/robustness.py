@@ -30,7 +30,9 @@ draws for every condition:
 * scan versus world (``--world-magnitudes``): ``camera-pose``, ``projector-aim``, ``albedo``,
   ``geometry`` (``world.mismatch``), each alone: the people and the room's light rendered in a world
   that differs from the scan the room model believes by one calibration error
-  (:func:`world_photographs`), beside ``world-scan``, the same rendering in the scan itself;
+  (:func:`world_photographs`; ``--world-draws`` independent worlds, their people pooled in one
+  row), beside ``world-scan``, the same rendering in the scan itself; the people are the
+  dataset's, drawn in the scan (a world's own draw would place other people);
 * ``all``: every capture effect at 1x ``tripod`` on the camera photographs.
 
 The people are rendered again once per room (``--cache``, resumable, atomic) and shared by the
@@ -187,24 +189,26 @@ WORLD_EFFECTS = ("camera-pose", "projector-aim", "albedo", "geometry")
 """Scan-versus-world effects (``world.mismatch``): the photographs come from a world that differs
 from the scan the room model believes."""
 WORLD_SEED = 11
-"""Seed of each world's draw (the same world for every reading of a room)."""
+"""Seed of the first world's draw (the same worlds for every reading of a room); draw i's is
+``WORLD_SEED + 1000 i``."""
 WORLD_FOOTPRINT = 8
 """Footprint of the world photographs' person light (the fit's default, with the camera
 photographs' pixel offsets and other relay points: sampling apart from any fit's)."""
 
 
-def world_photographs(room: Room, cache: Path, effect: str, magnitude: float) -> dict[str, np.ndarray]:
+def world_photographs(room: Room, cache: Path, effect: str, magnitude: float, draw: int = 0) -> dict[str, np.ndarray]:
     """The held-out people photographed in a world that differs from the scan by ``effect`` at
     ``magnitude`` x ``tripod`` (cached): their light (``nlos``, ``nlos_ambient``, ``nlos_shadow``)
     at :data:`WORLD_FOOTPRINT`, and the world's static layers (what the capture records of the
-    room). Magnitude 0 is the scan itself: the reference of these conditions."""
+    room). Magnitude 0 is the scan itself: the reference of these conditions. ``draw``: which of
+    the independent worlds of that effect and magnitude (:data:`WORLD_SEED`)."""
     from nlos_spotlight.data.store import atomic_npz
     from nlos_spotlight.render.layers import static_layers
     from nlos_spotlight.render.settings import RenderSettings
     from nlos_spotlight.render.variation import layers_arrays, preset
     from nlos_spotlight.world.mismatch import mismatched_world
 
-    name = "scan" if magnitude == 0 else f"{effect}-{magnitude:g}"
+    name = "scan" if magnitude == 0 else f"{effect}-{magnitude:g}" + (f"-d{draw}" if draw else "")
     path = cache / room.name / f"world-{name}-{len(room.indices)}-f{WORLD_FOOTPRINT}.npz"
     if path.exists():
         with np.load(path, allow_pickle=False) as z:
@@ -213,7 +217,7 @@ def world_photographs(room: Room, cache: Path, effect: str, magnitude: float) ->
     cfg = fit_config(room.path)
     builder, dcfg = room_builder(room.path, cfg)
     v = preset("tripod").only(effect).scaled(magnitude)
-    world, aim, drawn = mismatched_world(builder.room_scene(), room.aim, v, WORLD_SEED)
+    world, aim, drawn = mismatched_world(builder.room_scene(), room.aim, v, WORLD_SEED + 1000 * draw)
     rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=WORLD_FOOTPRINT, spot_samples=dcfg.spot_samples,
                         person_samples=dcfg.person_samples, shadow_samples=4096, footprint_seed=CAMERA_SEED,
                         relay_offset=RELAY_OFFSET, device="cpu")
@@ -236,7 +240,7 @@ def world_test(room: Room, w: dict):
     return dataclasses.replace(t, layers=layers_from(w, "layer_"))
 
 
-def world_conditions(room: Room, cache: Path, magnitudes: list[float]) -> list:
+def world_conditions(room: Room, cache: Path, magnitudes: list[float], draws: int = 1) -> list:
     """(condition, magnitude, test people, variation) of the scan-versus-world rows: ``world-scan``
     (magnitude 0: the same rendering in the scan itself) and each of :data:`WORLD_EFFECTS`."""
     from nlos_spotlight.render.variation import preset
@@ -245,7 +249,8 @@ def world_conditions(room: Room, cache: Path, magnitudes: list[float]) -> list:
     rows = [("world-scan", 0.0, world_test(room, world_photographs(room, cache, "camera-pose", 0.0)), ideal)]
     for effect in WORLD_EFFECTS:
         for m in magnitudes:
-            rows.append((effect, m, world_test(room, world_photographs(room, cache, effect, m)), ideal))
+            rows.append((effect, m, [world_test(room, world_photographs(room, cache, effect, m, d)) for d in range(draws)],
+                         ideal))
     return rows
 
 
@@ -340,8 +345,14 @@ def spot_vector(room: Room, test) -> torch.Tensor:
 
 
 def score(room: Room, test, variation=None, seed: int = 0) -> dict:
+    """Six-way and 3-class posture accuracy (%) and mean error (cm) of ``test`` (or of a list of
+    tests pooled: one row over several worlds, each its own photographs)."""
     from nlos_spotlight.evaluate.seen import score_rooms
 
+    if isinstance(test, list):
+        parts = [(t.num_samples, score(room, t, variation, seed + i)) for i, t in enumerate(test)]
+        n = sum(k for k, _ in parts)
+        return {key: sum(k * r[key] for k, r in parts) / n for key in parts[0][1]}
     y = spot_vector(room, test)
     res = score_rooms(room.models.net, room.models.config.net, room.sensor, [test], [(y, "spot")], True, seed,
                       variation=variation)
@@ -576,6 +587,8 @@ def main(argv=None) -> int:
     ap.add_argument("--mitsuba-people", type=int, default=100, help="held-out people Mitsuba photographs")
     ap.add_argument("--world-magnitudes", default="", help="multiples of tripod for the scan-versus-world effects "
                                                             "(WORLD_EFFECTS; empty: none; each renders the people again)")
+    ap.add_argument("--world-draws", type=int, default=1, help="independent worlds per effect and magnitude, "
+                                                                "their people pooled in one row (default 1)")
     ap.add_argument("--no-render", action="store_true", help="capture effects only (no people rendered again)")
     ap.add_argument("--cache", default="out/robustness", help="the people rendered again, per room")
     ap.add_argument("--seed", type=int, default=0, help="sensor noise and drift draws")
@@ -621,11 +634,11 @@ def main(argv=None) -> int:
         notes[f"{name}:{reading}"]["sensor_noise_median"] = float(np.median(sensor_noise(room, args.seed)))
         flags += flag_rates(room, [float(m) for m in args.flag_multiples.split(",")], args.flag_captures, args.seed)
         world_mags = [float(m) for m in args.world_magnitudes.split(",") if m.strip()]
-        worlds = world_conditions(room, Path(args.cache), world_mags) if world_mags and not args.no_render else []
+        worlds = world_conditions(room, Path(args.cache), world_mags, args.world_draws) if world_mags and not args.no_render else []
         for cond, mag, test, var in [*conditions(room, people, mags), *worlds]:
             r = score(room, test, var, args.seed)
             rows.append({"room": name, "reading": reading, "condition": cond, "magnitude": mag, **r,
-                         "people": test.num_samples})
+                         "people": sum(x.num_samples for x in test) if isinstance(test, list) else test.num_samples})
             print(f"{name:10s} {reading:8s} {cond:17s} x{mag:<4g} six-way {r['posture_accuracy']:5.1f}%  "
                   f"3-way {r['posture3_accuracy']:5.1f}%  error {r['error_cm']:6.1f} cm", flush=True)
     out = Path(args.out)

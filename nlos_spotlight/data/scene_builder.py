@@ -211,8 +211,9 @@ class SceneBuilder:
         ``relay_offsets``: each one's ``nlos_shadow`` relay offset (``settings.relay_offset`` if None);
         ``world``: a scene to render them in instead of the room (``world.mismatch``: the room as it
         differs from its scan), the same people at the same places."""
-        scene = self._room()[0] if world is None else world
-        specs = self._specs(scene)
+        room = self._room()[0]
+        scene = room if world is None else world
+        specs = self._specs(room)  # the people are drawn in the scan: a world's own draw would place others
         r = Renderer(scene, settings, aim_points=np.asarray(aim, np.float64)[None])
         y = r.spot_vector(0)
         out = {c: [] for c in components}
