@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from nlos_spotlight.data.static import read_static
 from nlos_spotlight.data.config import DatasetConfig
 from nlos_spotlight.data.config import transport_count
 from nlos_spotlight.data.generate import plan
@@ -46,7 +47,7 @@ def room_renderer(cfg: DatasetConfig, p, data: Path, faces: list[int]):
     """(builder, scene, renderer) of training room ``p`` with the dataset's settings, spots ``faces``."""
     b = SceneBuilder(cfg, p, data)
     scene = generate_room(p.seed, b._room_config()).scene
-    st = np.load(b.dir / "static.npz")
+    st = read_static(b.dir)
     settings = RenderSettings(pixel_samples=cfg.pixel_samples, transport_pixel_samples=cfg.transport_pixel_samples,
                               spot_samples=cfg.spot_samples, person_samples=cfg.person_samples, device="cpu")
     return b, scene, Renderer(scene, settings, aim_points=st["aim_points"][faces])

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from nlos_spotlight.data.static import read_static
 from nlos_spotlight.lighting.snr import candidate_snr
 from nlos_spotlight.render.sensor import SensorConfig, auto_exposure, noise_variance_dn
 from nlos_spotlight.scene import load_scene
@@ -47,7 +48,7 @@ def snr_electrons(signal, total, exposure: float, cfg: SensorConfig, old: bool) 
 def room(scene_dir: Path) -> dict:
     cfg = SensorConfig.for_scene(load_scene(scene_dir))
     old_cfg = SensorConfig.from_dict({**cfg.to_dict(), "metering": "highlight"})
-    st = np.load(scene_dir / "static.npz")
+    st = read_static(scene_dir, "direct", "ambient")
     t = int(np.argmax(candidate_snr(scene_dir)))
     static = torch.as_tensor(st["direct"][t] + st["ambient"]).double()
     amb = st["ambient"].sum(-1)

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from nlos_spotlight.data.static import read_static
 from nlos_spotlight.data.tensors import finished_scene_dirs
 from nlos_spotlight.errors import NlosError
 from nlos_spotlight.lighting.center import center_candidate
@@ -72,7 +73,7 @@ def adaptive_candidate(scene_dir: Path) -> int:
 
 
 def scene_snrs(scene_dir: Path, adaptive: bool = False) -> dict:
-    st = np.load(scene_dir / "static.npz")
+    st = read_static(scene_dir)
     landed = st["spot_landed"]
     r = scene_snr(scene_dir)
     mean_t = r.candidates

@@ -67,6 +67,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from fitted_rooms_transfer import room_range  # noqa: E402
 from unseen_room_fit import read_fit_rows, room_interval, run_dir, static_people, write_rows  # noqa: E402
 
+from nlos_spotlight.data.static import read_static
 from nlos_spotlight.data.store import atomic_npz  # noqa: E402
 from nlos_spotlight.evaluate.synthesis import (Bank, Synthesizer, albedo_fit, floor_cells, mean_body,  # noqa: E402
                                                read_photograph)
@@ -176,7 +177,7 @@ def room_synthesizer(room: Path, cfg, face: int, faces: int | None = None) -> Sy
     scene.human = None
     settings = RenderSettings(pixel_samples=cfg.pixel_samples, transport_pixel_samples=cfg.transport_pixel_samples,
                               spot_samples=cfg.spot_samples, person_samples=faces or cfg.person_samples, device="cpu")
-    return Synthesizer(scene, np.load(room / "static.npz")["aim_points"][face], settings, faces or cfg.body_faces,
+    return Synthesizer(scene, read_static(room, "aim_points")["aim_points"][face], settings, faces or cfg.body_faces,
                        cfg.person_quadrature, pose=lambda params, n: posed_body(params, target_faces=n))
 
 

@@ -64,6 +64,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from nlos_spotlight.data.static import read_static
 from nlos_spotlight.errors import NlosError
 from nlos_spotlight.lighting.oracle import SNR_RANKS
 
@@ -294,8 +295,8 @@ def fit_room(args, i: int, room: Path, test_cfg: dict, rows: list[dict], write) 
         secs = first_seconds(out / f"render_seconds-{r + 1}.json", t0)
         more.append((training_split(out / f"data-{r + 1}").pool, secs))
     test = static_people(room)
-    fit_aims = np.load(next((data / "scenes").iterdir()) / "static.npz")["aim_points"]
-    if not np.allclose(fit_aims, np.load(room / "static.npz")["aim_points"], atol=1e-6):
+    fit_aims = read_static(next((data / "scenes").iterdir()), "aim_points")["aim_points"]
+    if not np.allclose(fit_aims, read_static(room, "aim_points")["aim_points"], atol=1e-6):
         raise SystemExit(f"{room.name}: the fitted room's candidate spots differ from the test room's")
     split = training_split(data)
     for spec in args.variants:

@@ -256,16 +256,40 @@ def camera_to_world(camera: Camera) -> np.ndarray:
     return pose
 
 
-def ien_logits(models: TrainedModels, los: TriMesh, camera: Camera) -> torch.Tensor:
-    """(F,) IEN logits of the LOS mesh's faces, read in the camera frame."""
-    x, edges = graph_inputs(los, camera_to_world(camera), models.config.ien_features)
+def ien_logits(models: TrainedModels, los: TriMesh, camera: Camera, scene=None) -> torch.Tensor:
+    """(F,) IEN logits of the LOS mesh's faces, read in the camera frame with every input its
+    training read (``load_scene_tensors``): for an IEN trained with ``ien_features`` 'region' the
+    mesh in the hidden region's frame, for 'adaptive' or a ``prior_weight`` the Adaptive Lighting
+    score of each face aimed at its centroid (as a room stores its candidates). Those need
+    ``scene`` with a hidden region; a bare mesh gives one line saying so. The one path from a mesh
+    to the IEN's choice (``nlos spotlight``, ``nlos fit --policy ien``)."""
+    from ..data.tensors import face_log_prior
+
+    feats = list(models.config.ien_features)
+    weight = float(getattr(models.ien.cfg, "prior_weight", 0.0))
+    needs = [f for f in feats if f in ("region", "adaptive")] + (["a face prior"] if weight else [])
+    if needs and (scene is None or scene.hidden_region is None):
+        raise NlosError(f"{models.path}: this IEN reads {', '.join(needs)} of the hidden region; give a scene "
+                        "with a hidden_region (an nlos-scene/1 directory), not a bare mesh")
+    pose = camera_to_world(camera)
+    region = scores = None
+    if "region" in feats:
+        hr = scene.hidden_region
+        fwd = -pose[:2, 2] / np.linalg.norm(pose[:2, 2])
+        region = ((np.asarray(hr.min, float)[:2] + np.asarray(hr.max, float)[:2]) / 2, fwd, float(hr.floor_z))
+    if "adaptive" in feats or weight:
+        from ..lighting.adaptive import adaptive_scores
+
+        scores = adaptive_scores(scene, los.centroids())
+    x, edges = graph_inputs(los, pose, feats, region, scores)
     if x.shape[1] != models.ien.cfg.in_features:
         raise NlosError(f"{models.path}: the IEN expects {models.ien.cfg.in_features} input features per vertex, "
                         f"features {models.config.ien_features} give {x.shape[1]}")
     device = next(models.ien.parameters()).device
+    prior = face_log_prior(scores).to(device) if weight else None
     with torch.no_grad():
         return models.ien(x.to(device), edges.to(device),
-                          torch.as_tensor(los.faces, dtype=torch.long, device=device)).cpu()
+                          torch.as_tensor(los.faces, dtype=torch.long, device=device), prior).cpu()
 
 
 def oriented_normals(los: TriMesh, camera: Camera) -> np.ndarray:
@@ -439,7 +463,12 @@ def spotlight(models: TrainedModels, setup: SpotlightSetup, target_vertices: int
     if target_vertices < 8:
         raise NlosError(f"--target-vertices: expected at least 8, got {target_vertices}")
     los = visible_mesh(setup, target_vertices)
-    logits = ien_logits(models, los, setup.camera)
+    scene = None
+    if setup.kind == "scene":  # a room with a hidden region: what an IEN trained with it reads
+        from ..scene.io import load_scene
+
+        scene = load_scene(setup.source)
+    logits = ien_logits(models, los, setup.camera, scene)
     reachable, landing = projector_reach(setup, los)
     if not reachable.any():
         raise NlosError(f"the projector at {np.round(setup.projector, 3).tolist()} reaches none of the "

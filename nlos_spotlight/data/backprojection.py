@@ -168,7 +168,9 @@ def room_backprojector(scene_dir: str, grid: FloorGrid = FloorGrid()) -> tuple[B
 
     d = Path(scene_dir)
     scene = load_scene(d)
-    st = dict(np.load(d / "static.npz"))
+    from .static import read_static
+
+    st = read_static(d)
     pose = st["camera_to_world"]
     fwd = -pose[:2, 2] / np.linalg.norm(pose[:2, 2])
     return backprojector(scene, region_center(d), fwd, grid), st

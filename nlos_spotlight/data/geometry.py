@@ -37,10 +37,9 @@ def _room_geometry(scene_dir: str) -> torch.Tensor:
 
     d = Path(scene_dir)
     scene = load_scene(d)  # NlosError on a broken scene
-    try:
-        pose = np.load(d / "static.npz")["camera_to_world"]
-    except Exception as exc:  # np.load raises several types on torn files
-        raise NlosError(f"{d}/static.npz: cannot read the camera pose ({type(exc).__name__})") from None
+    from .static import read_static
+
+    pose = read_static(d, "camera_to_world")["camera_to_world"]
     if scene.hidden_region is None:
         raise NlosError(f"{d}/scene.json: no hidden_region (the geometry's frame)")
     floor_z = scene.hidden_region.floor_z

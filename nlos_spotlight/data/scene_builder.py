@@ -31,6 +31,7 @@ from ..scene.los import los_mesh
 from ..scene.io import save_scene
 from .config import DatasetConfig
 from .flash import FLASH_SPOT_SAMPLES, flash_scene
+from .static import read_static, static_path
 from .store import atomic_json, atomic_npz, f16_encode, file_digest
 from .trajectories import walking_trajectory
 
@@ -82,7 +83,7 @@ class SceneBuilder:
         flash = Renderer(flash_scene(scene), dataclasses.replace(settings, spot_samples=settings.spot_samples
                                                                  * FLASH_SPOT_SAMPLES),
                          aim_points=scene.camera.look_at[None])
-        if not _readable(self.dir / "static.npz", "flash_direct"):
+        if not _readable(static_path(self.dir), "flash_direct"):
             self._write_static(renderer, flash, los, family)
         (self.dir / "samples").mkdir(exist_ok=True)
         specs = self._specs(scene)
@@ -157,7 +158,7 @@ class SceneBuilder:
         fwd, right, up = camera_frame(r.scene.camera)
         pose = np.eye(4)
         pose[:3, 0], pose[:3, 1], pose[:3, 2], pose[:3, 3] = right, up, -fwd, r.scene.camera.position
-        atomic_npz(self.dir / "static.npz", los_vertices=los.vertices, los_faces=los.faces,
+        atomic_npz(static_path(self.dir), los_vertices=los.vertices, los_faces=los.faces,
                    aim_points=r.aim_points, spot_landed=r.spot_landed,
                    direct=r.D.reshape(h, w, r.num_spots, 3).permute(2, 0, 1, 3).float().numpy(),
                    ambient=r.ambient_image.float().numpy(), camera_to_world=pose, family=np.array(family),
@@ -299,7 +300,7 @@ def choose_spots(cfg: DatasetConfig, plan, scene_dir: Path) -> dict:
 
     scene_dir = Path(scene_dir)
     snr = np.asarray(candidate_snr(scene_dir), np.float64)
-    landed = np.asarray(np.load(scene_dir / "static.npz")["spot_landed"], bool)
+    landed = np.asarray(read_static(scene_dir, "spot_landed")["spot_landed"], bool)
     top = by_snr(snr, landed)[:cfg.stored_spots_top]
     s = load_scene_tensors(scene_dir, [], samples="transport")
     i = split_position(cfg, plan.index)

@@ -274,7 +274,9 @@ def adaptive_prior(scene_dir: str) -> np.ndarray:
     from ..lighting.adaptive import adaptive_scores
     from ..scene.io import load_scene
 
-    return adaptive_scores(load_scene(scene_dir), np.load(Path(scene_dir) / "static.npz")["aim_points"])
+    from .static import read_static
+
+    return adaptive_scores(load_scene(scene_dir), read_static(scene_dir, "aim_points")["aim_points"])
 
 
 SAMPLE_KINDS = ("all", "transport", "images")
@@ -343,8 +345,11 @@ def load_scene_tensors(scene_dir: Path, features: list[str], samples: str = "all
     if samples not in SAMPLE_KINDS:
         raise NlosError(f"samples: expected one of {', '.join(SAMPLE_KINDS)}, got {samples!r}")
     scene_dir = Path(scene_dir)
+    from .static import read_static
+
+    st = read_static(scene_dir, "los_vertices", "los_faces", "spot_landed", "direct", "ambient", "camera_to_world",
+                     optional=("flash_direct",))
     try:
-        st = np.load(scene_dir / "static.npz")
         full = [_read_sample(f, False) for f in _sample_files(scene_dir / "samples")] \
             if samples != "images" else []
         images = [_read_sample(f, True) for f in _sample_files(scene_dir / "images")] \
@@ -383,7 +388,7 @@ def load_scene_tensors(scene_dir: Path, features: list[str], samples: str = "all
         posture=torch.as_tensor([int(z["posture"]) for z in zs]),
         trajectory=torch.as_tensor([[int(z["trajectory"]), int(z["frame"])] for z in zs]),
         camera_xy=f32(cam), forward_xy=f32(fwd), origin_xy=f32(origin),
-        flash_direct=f32(st["flash_direct"]) if "flash_direct" in st.files else None,
+        flash_direct=f32(st["flash_direct"]) if "flash_direct" in st else None,
         flash_nlos=f32(np.stack([z["flash_nlos"] for z in zs])) if has_flash else None,
         scene_dir=str(scene_dir), stored=torch.from_numpy(stored),
         transport=torch.as_tensor([True] * len(full) + [False] * len(images), dtype=torch.bool),

@@ -50,11 +50,13 @@ STRAY = "not part of the dataset (a stray file)"
 
 def _shape_problems(scene_dir: Path) -> list[tuple[Path, str]]:
     out = []
+    from .static import read_static, static_path
+
     try:
-        with np.load(scene_dir / "static.npz") as st:
-            t, (h, w) = st["direct"].shape[0], st["ambient"].shape[:2]
-    except Exception as exc:  # numpy raises many types on torn files
-        return [(scene_dir / "static.npz", f"unreadable ({type(exc).__name__})")]
+        st = read_static(scene_dir, "direct", "ambient")
+        t, (h, w) = st["direct"].shape[0], st["ambient"].shape[:2]
+    except NlosError as exc:
+        return [(static_path(scene_dir), str(exc).split(": ", 1)[-1])]
     k = None
     try:
         k = len(json.loads((scene_dir / "spots.json").read_text())["spots"])

@@ -61,9 +61,10 @@ def dense_los_mesh(scene_dir: Path) -> TriMesh:
 
 def choices(models: TrainedModels, s: SceneTensors, ratios=RATIOS) -> list[DecimatedChoice]:
     """The IEN's spot at every ratio, snapped to the stored candidates of ``s``."""
+    from ..data.static import read_static
     from ..scene.decimate import decimate_ratio
 
-    st = np.load(Path(s.scene_dir) / "static.npz")
+    st = read_static(s.scene_dir, "camera_to_world", "aim_points", "spot_landed")
     pose, aims = st["camera_to_world"], st["aim_points"]
     ok = st["spot_landed"]
     dense = dense_los_mesh(Path(s.scene_dir))

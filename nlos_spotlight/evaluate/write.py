@@ -108,12 +108,13 @@ def policy_panels(ev: Evaluation, data: Path) -> list[dict]:
     from ..render.camera import project
     from ..scene import load_scene
     from ..train.imaging import form_images
+    from ..data.static import read_static
     from ..data.tensors import load_scene_tensors
 
     sid = ev.scene_ids[0]
     s = load_scene_tensors(data / "scenes" / sid, ["normals"])
     cam = load_scene(data / "scenes" / sid).camera
-    aims = np.load(data / "scenes" / sid / "static.npz")["aim_points"]
+    aims = read_static(data / "scenes" / sid, "aim_points")["aim_points"]
     panels, seen = [], set()
     for name, by_seed in ev.preds.items():
         m = BY_NAME[name]

@@ -36,10 +36,11 @@ def capture_record(out: Path, cfg: FitConfig, face: int) -> dict:
     from ..train.imaging import capture_sensor
     from .spot import scene_dir
 
+    from ..data.static import read_static
     from .train import capture_overrides
 
-    with np.load(scene_dir(out) / "static.npz") as st:
-        free = st["direct"][face] + st["ambient"]
+    st = read_static(scene_dir(out), "direct", "ambient")
+    free = st["direct"][face] + st["ambient"]
     sensor = capture_sensor(free.shape[:2], capture_overrides(out, cfg))
     t = auto_exposure(torch.as_tensor(free, dtype=torch.float32), sensor)
     return {"burst_frames": cfg.burst_frames, "exposure_s": t, "burst_s": t * cfg.burst_frames,

@@ -9,6 +9,7 @@ import numpy as np
 import torch
 
 from ..errors import NlosError
+from ..data.static import read_static
 from ..lighting.learned import require_learned
 from ..scene.format import Scene, TriMesh
 
@@ -30,7 +31,7 @@ def ien_face(models, scene: Scene, los: TriMesh) -> int:
     mesh = scene.static_mesh()[0]
     setup = SpotlightSetup(Path("room"), "scene", mesh, scene.camera, "scene", scene.projector.position, "scene")
     reach, _ = projector_reach(setup, los)
-    logits = ien_logits(models, los, scene.camera).double().masked_fill(~torch.as_tensor(reach), float("-inf"))
+    logits = ien_logits(models, los, scene.camera, scene).double().masked_fill(~torch.as_tensor(reach), float("-inf"))
     if not reach.any():
         raise NlosError("the projector reaches none of the faces the camera sees")
     return int(torch.argmax(logits))
@@ -53,8 +54,7 @@ def spot_record(out: Path, face: int) -> dict:
     if face < 0:
         raise NlosError("the spot policy chose no spot (flash or ambient): nothing to aim")
     room = load_scene(Path(out) / "room")
-    with np.load(scene_dir(out) / "static.npz") as st:
-        target = np.asarray(st["aim_points"][face], np.float64)
+    target = np.asarray(read_static(scene_dir(out), "aim_points")["aim_points"][face], np.float64)
     mesh = room.static_mesh()[0]
     proj = room.projector.position
     d = (target - proj) / np.linalg.norm(target - proj)

@@ -184,7 +184,9 @@ def adaptive_spot(scene, scene_dir: Path, rng: np.random.Generator) -> Illuminat
     """The landed candidate with the highest Adaptive Lighting score (``rng`` unused)."""
     from ..scene import load_scene
 
-    aims = np.load(Path(scene_dir) / "static.npz")["aim_points"]
+    from ..data.static import read_static
+
+    aims = read_static(scene_dir, "aim_points")["aim_points"]
     scores = adaptive_scores(load_scene(scene_dir), aims)
     landed = scene.landed.cpu().numpy().astype(bool)
     return Illumination("spot", int(np.argmax(np.where(landed, scores, -np.inf))))

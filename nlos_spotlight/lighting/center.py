@@ -33,5 +33,7 @@ def center_spot(scene, scene_dir: Path, rng: np.random.Generator) -> Illuminatio
     """The landed candidate nearest the center of the camera image (``rng`` unused)."""
     from ..scene import load_scene
 
-    aims = np.load(Path(scene_dir) / "static.npz")["aim_points"]
+    from ..data.static import read_static
+
+    aims = read_static(scene_dir, "aim_points")["aim_points"]
     return Illumination("spot", center_candidate(load_scene(scene_dir).camera, aims, scene.landed.cpu().numpy()))

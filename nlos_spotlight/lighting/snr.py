@@ -79,7 +79,9 @@ def scene_snr(scene_dir: str | Path, skip_every: int = 0, sensor: dict | None = 
     from ..scene import load_scene
 
     scene_dir = Path(scene_dir)
-    st = np.load(scene_dir / "static.npz")
+    from ..data.static import read_static
+
+    st = read_static(scene_dir)
     direct, ambient = torch.as_tensor(st["direct"]).double(), torch.as_tensor(st["ambient"]).double()
     landed = np.asarray(st["spot_landed"], bool)
     cfg = SensorConfig.for_scene(load_scene(scene_dir), sensor)
@@ -87,7 +89,7 @@ def scene_snr(scene_dir: str | Path, skip_every: int = 0, sensor: dict | None = 
     static_t = direct[lit] + ambient  # (L, H, W, 3) person-free photographs of the landed spots
     exposures = torch.tensor([auto_exposure(img, cfg) for img in static_t], dtype=torch.float64)
     amb_exposure = auto_exposure(ambient, cfg)
-    flash_direct = torch.as_tensor(st["flash_direct"]).double() if "flash_direct" in st.files else None
+    flash_direct = torch.as_tensor(st["flash_direct"]).double() if "flash_direct" in st else None
     flash_exposure = auto_exposure(flash_direct + ambient, cfg) if flash_direct is not None else None
     per_t, amb, flash = [], [], []
     for k, path in enumerate(sorted((scene_dir / "samples").glob("*.npz"))):
