@@ -62,6 +62,7 @@ import torch
 
 from nlos_spotlight.errors import NlosError
 from nlos_spotlight.fit.run import room_builder
+from nlos_spotlight.render.variation import WORLD_EFFECTS
 
 COLUMNS = ("room", "reading", "condition", "magnitude", "posture_accuracy", "posture3_accuracy", "error_cm", "people")
 CAMERA_CONDITIONS = ("footprint-offsets", "relay-offsets", "relay-averaged", "shadow-averaged", "pixel-integrated", "pixel-integrated-2x2", "shadow", "camera", "clothing-dark", "clothing-light",
@@ -186,9 +187,6 @@ def fit_reproduction(room: Room, cache: Path) -> dict[str, np.ndarray]:
     return out
 
 
-WORLD_EFFECTS = ("camera-pose", "projector-aim", "albedo", "geometry")
-"""Scan-versus-world effects (``world.mismatch``): the photographs come from a world that differs
-from the scan the room model believes."""
 WORLD_SEED = 11
 """Seed of the first world's draw (the same worlds for every reading of a room); draw i's is
 ``WORLD_SEED + 1000 i``."""

@@ -220,7 +220,8 @@ def cmd_fit(args: argparse.Namespace) -> None:
     if args.preset not in PRESETS:
         raise NlosError(f"--preset: expected one of {', '.join(PRESETS)}, got {args.preset!r}")
     changes = {k: getattr(args, k) for k in ("people", "policy", "seed", "burst", "workers", "capture_preset",
-                                             "pixel_footprint", "shadow_samples", "shadow_relay", "clothing")
+                                             "pixel_footprint", "shadow_samples", "shadow_relay", "clothing",
+                                             "world_variation")
                if getattr(args, k) is not None}
     if "burst" in changes:
         changes["burst_frames"] = changes.pop("burst")
@@ -441,6 +442,9 @@ def build_parser() -> argparse.ArgumentParser:
                                                       "(default 4096); 0: the shadow term left out")
     f.add_argument("--shadow-relay", choices=("per-person", "fixed"), help="the shadow's relay points drawn "
                                                                            "per person (default) or one fixed set")
+    f.add_argument("--world-variation", help="calibration error to train under: the people rendered in worlds "
+                                             "off the scan by camera pose, projector aim, albedo and geometry "
+                                             "(tripod, rough); ideal: in the scan itself (default)")
     f.add_argument("--clothing", choices=("camera", "dataset"), help="clothing albedos training redresses people "
                                                                      "in: camera (black to white, default) or "
                                                                      "dataset (as rendered)")

@@ -212,9 +212,8 @@ class SceneBuilder:
         ``relay_offsets``: each one's ``nlos_shadow`` relay offset (``settings.relay_offset`` if None);
         ``world``: a scene to render them in instead of the room (``world.mismatch``: the room as it
         differs from its scan), the same people at the same places."""
-        room = self._room()[0]
+        room, specs = self._scan_people()
         scene = room if world is None else world
-        specs = self._specs(room)  # the people are drawn in the scan: a world's own draw would place others
         r = Renderer(scene, settings, aim_points=np.asarray(aim, np.float64)[None])
         y = r.spot_vector(0)
         out = {c: [] for c in components}
@@ -227,6 +226,14 @@ class SceneBuilder:
             for c in components:
                 out[c].append(res[c].double().cpu().numpy())
         return {c: np.stack(v) for c, v in out.items()}
+
+    def _scan_people(self):
+        """The room's scene and every sample's person drawn in it (kept: a fit's shadow step asks once
+        per world). People are drawn in the scan: a world's own draw would place others."""
+        if getattr(self, "_people_cache", None) is None:
+            room = self._room()[0]
+            self._people_cache = (room, self._specs(room))
+        return self._people_cache
 
     def _person(self, spec: dict, floor_z: float):
         from ..world.body import posed_body

@@ -69,6 +69,11 @@ class FitConfig:
     capture_preset: str = "tripod"
     """Capture variation the room model is trained to survive (``render.variation``: ideal, tripod,
     rough); 'ideal' is the recipe before drift was modelled."""
+    world_variation: str = "ideal"
+    """Scan-versus-world calibration error the room model is trained to survive (the preset's camera
+    pose, projector aim, albedo and scan-geometry fields, ``world.mismatch``): 'ideal' renders every
+    person in the scan itself (the recipe before it); 'tripod' or 'rough' render the image samples
+    under the chosen spot in ``fit.shadow.RELAY_SETS`` drawn worlds a block (``fit/shadow.py``)."""
     project_nuisance: bool = True
     """Under a capture variation, project its directions out of every photograph (``models.nuisance``)
     before the network reads it (False: the network alone learns to ignore the drift)."""
@@ -104,6 +109,12 @@ class FitConfig:
             preset(self.capture_preset)
         except NlosError as exc:
             raise NlosError(f"--capture-preset: {str(exc).split(': ', 1)[1]}") from None
+        try:
+            preset(self.world_variation)
+        except NlosError as exc:
+            raise NlosError(f"--world-variation: {str(exc).split(': ', 1)[1]}") from None
+        if self.world_variation != "ideal" and self.shadow_samples == 0:
+            raise NlosError("--world-variation renders the people again with their shadow: it needs --shadow-samples > 0")
         if self.policy not in POLICIES:
             raise NlosError(f"--policy: expected one of {', '.join(POLICIES)}, got {self.policy!r}")
         if (self.policy == "ien") != bool(self.checkpoint):
@@ -131,7 +142,7 @@ MAX_WORKERS = 256
 
 
 BEFORE = {"capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "shadow_samples": 0,
-          "clothing": "dataset", "shadow_relay": "fixed"}
+          "clothing": "dataset", "shadow_relay": "fixed", "world_variation": "ideal"}
 """What a room model fitted before each of these settings existed did (see their docstrings)."""
 
 

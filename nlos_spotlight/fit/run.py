@@ -34,7 +34,7 @@ FORMAT = "nlos-room-model/1"
 RESUMABLE_CHANGES = ("workers",)
 """Settings a resumed fit may change: the process count (the output is byte-identical)."""
 TRAINING_ONLY = ("capture_preset", "project_nuisance", "epochs", "min_steps", "workers", "shadow_samples", "shadow_relay",
-                 "clothing")
+                 "clothing", "world_variation")
 """Settings that leave the room and its rendered people as they are (``--people-from`` may differ in them)."""
 
 

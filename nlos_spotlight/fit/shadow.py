@@ -8,6 +8,13 @@ rendered once the spot is chosen, for the image samples only, by ``workers`` pro
 of :data:`BLOCK` people (``ROOM_MODEL/shadow/block-NNNNN.npz``, written atomically: a rerun renders
 only the missing blocks), with the same pixel footprint as the people's light. Training adds it to
 every person's light (``SceneTensors.shadow``); it scales with the projector, not with clothing.
+
+With ``world_variation`` other than 'ideal' the same step renders each image sample's whole light
+under the chosen spot (``nlos``, ``nlos_ambient``, ``nlos_shadow``) in a world that differs from
+the scan by a drawn calibration error (``world.mismatch``: camera pose, projector aim, albedo,
+scan geometry), one world per relay set of a block (:data:`RELAY_SETS` worlds a block, each built
+once), and training reads these instead of the dataset's light: the room model learns what
+survives the calibration error, not the scan's exact pixels (benchmarks/robustness.py, world rows).
 """
 
 from __future__ import annotations
@@ -52,10 +59,10 @@ def _path(out: Path, block: int) -> Path:
     return shadow_dir(out) / f"block-{block:05d}.npz"
 
 
-def _readable(path: Path, indices: list[int]) -> bool:
+def _readable(path: Path, indices: list[int], comps: tuple[str, ...] = ("nlos_shadow",)) -> bool:
     try:
         with np.load(path, allow_pickle=False) as z:
-            return z["indices"].tolist() == indices and z["nlos_shadow"].shape[0] == len(indices)
+            return z["indices"].tolist() == indices and all(z[c].shape[0] == len(indices) for c in comps)
     except Exception:  # a torn block is rendered again
         return False
 
@@ -66,9 +73,45 @@ def _one_thread() -> None:
     torch.set_num_threads(1)
 
 
+WORLD_COMPONENTS = ("nlos", "nlos_ambient", "nlos_shadow")
+"""What a block stores under a world variation: the people's whole light in their drawn worlds."""
+
+
+def components(cfg: FitConfig) -> tuple[str, ...]:
+    return ("nlos_shadow",) if cfg.world_variation == "ideal" else WORLD_COMPONENTS
+
+
+def _in_worlds(builder, settings, aim: np.ndarray, indices: list[int], offsets: list[float] | None,
+               cfg: FitConfig, block: int) -> dict[str, np.ndarray]:
+    """The block's people in :data:`RELAY_SETS` drawn worlds: those of relay set j (k mod
+    :data:`RELAY_SETS`) in world [seed, block, j], so each world's renderer serves its set."""
+    from ..render.variation import preset
+    from ..world.mismatch import mismatched_world
+
+    v = preset(cfg.world_variation).world_effects
+    scan = builder.room_scene()
+    out = {c: [None] * len(indices) for c in WORLD_COMPONENTS}
+    for j in range(RELAY_SETS):
+        pos = [i for i, k in enumerate(indices) if k % RELAY_SETS == j]
+        if not pos:
+            continue
+        world, world_aim, _ = mismatched_world(scan, aim, v, [cfg.seed, WORLD_STREAM, block, j])
+        got = builder.rerender([indices[i] for i in pos], settings, world_aim, WORLD_COMPONENTS,
+                               None if offsets is None else [offsets[i] for i in pos], world=world)
+        for c in WORLD_COMPONENTS:
+            for n, i in enumerate(pos):
+                out[c][i] = got[c][n]
+    return {c: np.stack(v) for c, v in out.items()}
+
+
+WORLD_STREAM = 7919
+"""Seed stream of the drawn worlds (apart from the people's and the training's)."""
+
+
 def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int]) -> int:
     """One block: the people rendered again as the dataset drew them (``SceneBuilder.rerender``),
-    their ``nlos_shadow`` under the spot aimed at ``aim``."""
+    their ``nlos_shadow`` under the spot aimed at ``aim`` (their whole light in drawn worlds under a
+    world variation, :func:`_in_worlds`)."""
     from ..data.store import atomic_npz, f16_encode
     from ..render.settings import RenderSettings
     from .run import room_builder
@@ -78,10 +121,15 @@ def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int]
     settings = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
                               pixel_footprint=dcfg.pixel_footprint, spot_samples=dcfg.spot_samples,
                               person_samples=dcfg.person_samples, shadow_samples=fc.shadow_samples, device="cpu")
-    img = builder.rerender(indices, settings, np.asarray(aim, np.float64), ("nlos_shadow",),
-                           relay_offsets(indices, fc))["nlos_shadow"]
-    half, scale = f16_encode(img, True)
-    atomic_npz(_path(out_p, block), indices=np.asarray(indices, np.int64), nlos_shadow=half, nlos_shadow_scale=scale)
+    aim = np.asarray(aim, np.float64)
+    if fc.world_variation == "ideal":
+        got = builder.rerender(indices, settings, aim, ("nlos_shadow",), relay_offsets(indices, fc))
+    else:
+        got = _in_worlds(builder, settings, aim, indices, relay_offsets(indices, fc), fc, block)
+    arrays = {}
+    for c, img in got.items():
+        arrays[c], arrays[f"{c}_scale"] = f16_encode(img, True)
+    atomic_npz(_path(out_p, block), indices=np.asarray(indices, np.int64), **arrays)
     return len(indices)
 
 
@@ -96,15 +144,18 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
 
     out, d = Path(out), shadow_dir(out)
     meta = {"face": int(spot["face"]), "aim": [float(a) for a in spot["aim"]], "shadow_samples": cfg.shadow_samples,
-            "pixel_footprint": cfg.pixel_footprint, "shadow_relay": cfg.shadow_relay}
-    stored = {"shadow_relay": "fixed", **json.loads((d / "meta.json").read_text())} if (d / "meta.json").exists() else meta
+            "pixel_footprint": cfg.pixel_footprint, "shadow_relay": cfg.shadow_relay,
+            "world_variation": cfg.world_variation}
+    stored = {"shadow_relay": "fixed", "world_variation": "ideal", **json.loads((d / "meta.json").read_text())} \
+        if (d / "meta.json").exists() else meta
     if stored != meta:
         for p in d.glob("block-*.npz"):  # another spot or setting: nothing to keep
             p.unlink()
     d.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(d)
     atomic_json(d / "meta.json", meta)
-    todo = [(b, idx) for b, idx in _blocks(cfg.transport_people, cfg.samples) if not _readable(_path(out, b), idx)]
+    todo = [(b, idx) for b, idx in _blocks(cfg.transport_people, cfg.samples)
+            if not _readable(_path(out, b), idx, components(cfg))]
     total = cfg.samples - cfg.transport_people
     columns = (TextColumn("shadow"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
     with Progress(*columns, console=console, disable=QUIET or not progress) as bar:
@@ -131,16 +182,23 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
 
 def load_shadows(out: Path, cfg: FitConfig) -> np.ndarray:
     """(image samples, H, W, 3) float32 ``nlos_shadow``, in sample order (``load_split``'s)."""
+    return load_block_light(out, cfg)["nlos_shadow"]
+
+
+def load_block_light(out: Path, cfg: FitConfig) -> dict[str, np.ndarray]:
+    """Component -> (image samples, H, W, 3) float32 of what the step stored (:func:`components`)."""
     from ..data.store import f16_decode
 
-    parts = []
+    comps = components(cfg)
+    parts = {c: [] for c in comps}
     for b, idx in _blocks(cfg.transport_people, cfg.samples):
         path = _path(out, b)
-        if not _readable(path, idx):
+        if not _readable(path, idx, comps):
             raise NlosError(f"{path}: missing or damaged shadow block; rerun nlos fit with --resume")
         with np.load(path, allow_pickle=False) as z:
-            parts.append(f16_decode(z, "nlos_shadow"))
-    return np.concatenate(parts)
+            for c in comps:
+                parts[c].append(f16_decode(z, c))
+    return {c: np.concatenate(v) for c, v in parts.items()}
 
 
 __all__ = ["BLOCK", "load_shadows", "render_shadows", "shadow_dir"]

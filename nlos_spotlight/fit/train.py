@@ -68,17 +68,25 @@ def room_split(out: Path, cfg: FitConfig, features: list[str], shadow_spot: int 
 
 
 def with_shadow(s, out: Path, cfg: FitConfig, spot: int):
-    """The room's image samples ``s`` with their stored shadow term under ``spot``."""
+    """The room's image samples ``s`` with their stored shadow term under ``spot``; under a world
+    variation their whole light under ``spot`` is the one rendered in their drawn worlds
+    (``fit/shadow.py``): one column of ``u`` / ``v`` holds it, the other spots none."""
     import torch
 
     from ..errors import NlosError
-    from .shadow import load_shadows
+    from .shadow import load_block_light
 
-    shadow = torch.as_tensor(load_shadows(out, cfg), dtype=s.v.dtype)
+    got = {k: torch.as_tensor(v, dtype=s.v.dtype) for k, v in load_block_light(out, cfg).items()}
+    shadow = got["nlos_shadow"]
     if shadow.shape[0] != s.num_samples or shadow.shape[1:] != s.nlos_ambient.shape[1:]:
         raise NlosError(f"{out}/shadow: {shadow.shape[0]} people's shadow for {s.num_samples} people; "
                         "rerun nlos fit with --resume")
-    return dataclasses.replace(s, shadow=shadow, shadow_spot=int(spot))
+    if "nlos" not in got:
+        return dataclasses.replace(s, shadow=shadow, shadow_spot=int(spot))
+    u = torch.zeros(s.num_samples, s.u.shape[1], 1, dtype=s.u.dtype)
+    u[:, spot, 0] = 1
+    return dataclasses.replace(s, u=u, v=got["nlos"][:, None], nlos_ambient=got["nlos_ambient"].to(s.nlos_ambient.dtype),
+                               shadow=shadow, shadow_spot=int(spot))
 
 
 def split_period(samples: int, heldout: int) -> int:

@@ -129,6 +129,11 @@ class CaptureVariation:
         return self.only(*CAPTURE_EFFECTS)
 
     @property
+    def world_effects(self) -> CaptureVariation:
+        """The scan-versus-world part alone (the capture fields zero)."""
+        return self.only(*WORLD_EFFECTS)
+
+    @property
     def is_ideal(self) -> bool:
         return all(getattr(self, n) == 0 for g in CAPTURE_EFFECTS for n in EFFECTS[g])
 
@@ -151,6 +156,8 @@ EFFECTS = {
 """Named effects (the robustness benchmark's conditions) and the fields each one sets."""
 CAPTURE_EFFECTS = ("camera-shift", "camera-roll", "projector-gain", "spot-drift", "ambient-gain", "exposure")
 """Effects acting between and within captures (image formation); the others change the world."""
+WORLD_EFFECTS = ("camera-pose", "projector-aim", "albedo", "geometry")
+"""Effects by which the world differs from the scan (``world.mismatch``)."""
 
 PRESETS = {
     "ideal": CaptureVariation(),
@@ -384,6 +391,6 @@ def load_layers(path) -> StaticLayers:
         raise NlosError(f"{path}: corrupted static layers ({str(exc).splitlines()[0][:80]})") from None
 
 
-__all__ = ["CAPTURE_EFFECTS", "EFFECTS", "PRESETS", "CaptureDraw", "CaptureVariation", "StaticLayers", "difference_sigmas",
+__all__ = ["CAPTURE_EFFECTS", "EFFECTS", "WORLD_EFFECTS", "PRESETS", "CaptureDraw", "CaptureVariation", "StaticLayers", "difference_sigmas",
            "draw_captures",
            "load_layers", "preset", "save_layers"]

@@ -340,6 +340,60 @@ def test_rerender_in_another_world_keeps_the_scans_people(fitted, monkeypatch):
     np.testing.assert_array_equal(np.stack(seen), np.stack([drawn[k] for k in idx]))
 
 
+def test_world_variation_trains_on_each_person_in_a_drawn_world(fitted, tmp_path):
+    """``world_variation`` 'tripod': each shadow block holds its people's whole light under the spot
+    rendered in drawn worlds (a person of relay set j in world [seed, stream, block, j], equal to
+    rendering it there directly), not the scan's light; training reads exactly that light in
+    place of the dataset's (``with_shadow``)."""
+    import shutil
+
+    import torch
+
+    from nlos_spotlight.data.generate import plan
+    from nlos_spotlight.data.scene_builder import SceneBuilder
+    from nlos_spotlight.fit.shadow import (RELAY_SETS, WORLD_COMPONENTS, WORLD_STREAM, _render_block,
+                                           load_block_light, relay_offsets)
+    from nlos_spotlight.fit.train import with_shadow
+    from nlos_spotlight.data.tensors import load_split
+    from nlos_spotlight.render.settings import RenderSettings
+    from nlos_spotlight.render.variation import preset
+    from nlos_spotlight.world.mismatch import mismatched_world
+
+    out, report = fitted
+    dest = tmp_path / "model"
+    shutil.copytree(out, dest)
+    cfg = dataclasses.replace(TINY, world_variation="tripod")
+    aim = np.asarray(report["spot"]["aim"])
+    first = list(range(TINY.transport_people, TINY.samples))
+    for b in range(0, len(first), 100):  # every block, as the step renders them
+        _render_block(str(dest), cfg.to_dict(), aim.tolist(), b // 100, first[b:b + 100])
+    got = load_block_light(dest, cfg)
+    assert set(got) == set(WORLD_COMPONENTS) and all(len(v) == len(first) for v in got.values())
+    dcfg = dataclasses.replace(dataset_config(TINY, dest / "room"), room=str((dest / "room").resolve()))
+    builder = SceneBuilder(dcfg, plan(dcfg)[0], dest / "data")
+    settings = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=TINY.pixel_footprint,
+                              spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
+                              shadow_samples=TINY.shadow_samples, device="cpu")
+    i = 3
+    k = first[i]
+    world, world_aim, drawn = mismatched_world(builder.room_scene(), aim, preset("tripod").world_effects,
+                                               [TINY.seed, WORLD_STREAM, 0, k % RELAY_SETS])
+    assert set(drawn) >= {"camera_deg", "projector_deg", "albedo_factor", "geometry_m"}
+    again = builder.rerender([k], settings, world_aim, WORLD_COMPONENTS, relay_offsets([k], cfg), world=world)
+    for c in WORLD_COMPONENTS:  # float16 storage
+        np.testing.assert_allclose(got[c][i], again[c][0], rtol=2e-3, atol=2e-3 * np.abs(again[c][0]).max())
+    scan = builder.rerender([k], settings, aim, ("nlos",))["nlos"][0]
+    assert np.linalg.norm(got["nlos"][i] - scan) > 0.01 * np.linalg.norm(scan), "the world is the scan"
+    s, = load_split(dest / "data", "train", ["normals"], samples="images")
+    face = report["spot"]["face"]
+    w = with_shadow(s, dest, cfg, face)
+    y = torch.zeros(w.u.shape[1])
+    y[face] = 1
+    light = torch.einsum("t,btr,brhwc->bhwc", y, w.u, w.v)
+    np.testing.assert_allclose(light.numpy(), got["nlos"], rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(w.nlos_ambient.numpy(), got["nlos_ambient"], rtol=1e-6, atol=1e-12)
+
+
 def test_a_fit_refused_before_any_person_leaves_nothing(room_dir, tmp_path, monkeypatch, capsys):
     """A fit refused after its room step, before any person is rendered, removes what it wrote, so
     that the corrected rerun (other settings) is not refused (issue 36, item 4); one refused with
