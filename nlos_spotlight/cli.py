@@ -259,6 +259,16 @@ def _outputs_not_inputs(args: argparse.Namespace) -> None:
             raise NlosError(f"--{flag}: {out} is one of this command's inputs; choose another file")
 
 
+def _burst(flag: int | None, room, frames: int) -> int:
+    """Frames averaged per capture: the flag, else the room model's burst where the frames split
+    into it (a still person's capture), else 1 (each input is already one capture)."""
+    if flag is not None:
+        return flag
+    if room is not None and room.burst_frames > 1 and frames % room.burst_frames == 0:
+        return room.burst_frames
+    return 1
+
+
 def cmd_predict(args: argparse.Namespace) -> None:
     from .apps.images import load_frames
     from .apps.predict import predict, print_table, write_csv, write_json
@@ -281,7 +291,8 @@ def cmd_predict(args: argparse.Namespace) -> None:
     if small:
         raise NlosError(f"inputs of {small[0][0]}x{small[0][1]} pixels are smaller than the network's "
                         f"{models.image_shape[0]}x{models.image_shape[1]} input; give the camera's full frames")
-    frames = loaded.bursts(args.burst or 1)
+    burst = _burst(args.burst, room, len(loaded))
+    frames = loaded.bursts(burst)
     background = background_clipped = None
     if args.background:  # an empty-room burst: its frames averaged
         empty = load_frames([args.background], models.image_shape, args.linear)
@@ -298,12 +309,16 @@ def cmd_predict(args: argparse.Namespace) -> None:
         from .render.variation import load_layers
 
         layers = load_layers(room.path / "layers.npz")
-        tol = tolerance(models.config.variation, args.burst or 1, layers.f_px, layers.depth_m)
+        tol = tolerance(models.config.variation, burst, layers.f_px, layers.depth_m)
     if room is not None:
         console.print(room.describe())
-        if (args.burst or 1) != room.burst_frames:
-            console.print(f"note: the model was trained on bursts of {room.burst_frames} frames; pass --burst "
-                          f"{room.burst_frames} to average consecutive frames of a still person")
+        if args.burst is None and burst == room.burst_frames > 1:
+            console.print(f"averaging consecutive bursts of {burst} frames, as the room model's capture "
+                          "(--burst 1 reads each frame alone)")
+        elif burst != room.burst_frames:
+            console.print(f"note: the model was trained on bursts of {room.burst_frames} frames; "
+                          f"{len(loaded)} frames read in bursts of {burst}" + (
+                              "" if args.burst is not None else f" (not a multiple of {room.burst_frames})"))
     res = predict(models, frames, smooth=not args.no_smooth, window=args.smooth_window, order=args.smooth_order,
                   batch_size=args.batch_size, background=background, background_clipped=background_clipped,
                   backend=args.backend, drift_tolerance=tol)

@@ -98,6 +98,29 @@ def test_predict_reads_the_room_model(fitted, tmp_path, capsys):
     assert np.linalg.norm(room - center) == pytest.approx(np.hypot(frame["x_m"], frame["y_m"]), abs=1e-6)
 
 
+def test_predict_averages_the_room_models_burst_by_default(fitted, tmp_path, capsys):
+    """Without --burst, frames that split into the room model's burst are averaged in it (a still
+    person's capture), and a frame count that does not is read frame by frame, saying so."""
+    out, _ = fitted
+    hp = np.load(out / "train" / "heldout.npz")
+    img, bg = hp["photo_image"], hp["photo_background"]
+    k = int(np.flatnonzero(~np.isnan(img[:, 0, 0, 0]))[0])
+    n = TINY.burst_frames
+    np.save(tmp_path / "empty.npy", bg[k])
+    np.save(tmp_path / "two.npy", np.stack([img[k]] * (2 * n)))
+    assert main(["predict", str(out), str(tmp_path / "two.npy"), "--background", str(tmp_path / "empty.npy"),
+                 "--json", str(tmp_path / "p.json")]) == 0
+    said = " ".join(capsys.readouterr().out.split())
+    assert f"averaging consecutive bursts of {n} frames" in said
+    assert len(json.loads((tmp_path / "p.json").read_text())["frames"]) == 2
+    np.save(tmp_path / "odd.npy", np.stack([img[k]] * (n + 1)))
+    assert main(["predict", str(out), str(tmp_path / "odd.npy"), "--background", str(tmp_path / "empty.npy"),
+                 "--json", str(tmp_path / "q.json")]) == 0
+    said = " ".join(capsys.readouterr().out.split())
+    assert f"{n + 1} frames read in bursts of 1 (not a multiple of {n})" in said
+    assert len(json.loads((tmp_path / "q.json").read_text())["frames"]) == n + 1
+
+
 def test_predict_reports_the_drift(fitted, tmp_path, capsys):
     """A room model trained under drift (the default, tripod) reports per capture what changed since
     the empty-room burst: a capture with the projector 5% brighter is flagged on the projector
