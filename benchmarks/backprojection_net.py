@@ -32,6 +32,7 @@ import torch
 
 from nlos_spotlight.console import console
 from nlos_spotlight.data.backprojection import matched_filter
+from nlos_spotlight.render.sensor import SensorConfig
 
 
 CAPTURES = ("photo", "spot")
@@ -48,12 +49,12 @@ def room_arrays(d: Path, faces: list[int] | None, samples: str, capture: str = "
     under each spot of ``faces`` (None: the room's stored spots)."""
     from nlos_spotlight.data.backprojection import FloorGrid, candidate_spot_factor, room_backprojector
     from nlos_spotlight.data.tensors import load_scene_tensors
-    from nlos_spotlight.train.imaging import capture_sensor, form_images, radiance_variance
+    from nlos_spotlight.train.imaging import form_images, radiance_variance
 
     s = load_scene_tensors(d, [], samples=samples)
     grid = FloorGrid(mask=mask)
     bp, _ = room_backprojector(str(d), grid)
-    sensor = capture_sensor(tuple(s.ambient.shape[:2]))
+    sensor = SensorConfig.at(tuple(s.ambient.shape[:2]))
     faces = faces if faces is not None else [int(f) for f in torch.nonzero(s.stored).flatten()]
     hit = torch.as_tensor(bp.hit.ravel())
     imgs, var, spots = [], [], []

@@ -22,6 +22,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from nlos_spotlight.render.sensor import SensorConfig
+
 HEIGHTS = tuple(round(0.1 + 0.2 * i, 1) for i in range(10))
 
 
@@ -31,7 +33,7 @@ def profiles(d: Path, seed: int, i: int) -> dict:
     from nlos_spotlight.data.tensors import load_scene_tensors
     from nlos_spotlight.lighting import policy_rng
     from nlos_spotlight.lighting.learned import policy_named
-    from nlos_spotlight.train.imaging import capture_sensor, form_images, radiance_variance
+    from nlos_spotlight.train.imaging import form_images, radiance_variance
 
     s = load_scene_tensors(d, [], samples="images" if "train" in d.name or "val" in d.name else "transport")
     grid = FloorGrid(heights=HEIGHTS)
@@ -41,7 +43,7 @@ def profiles(d: Path, seed: int, i: int) -> dict:
     y[face] = 1.0
     with torch.no_grad():
         img, pf = form_images(s, torch.arange(s.num_samples), y, "spot")
-    sensor = capture_sensor(tuple(s.ambient.shape[:2]))
+    sensor = SensorConfig.at(tuple(s.ambient.shape[:2]))
     var = (2 * radiance_variance(pf, pf, sensor)).numpy()
     clean = (img - pf).numpy()
     gen = np.random.default_rng(seed * 1000 + i)

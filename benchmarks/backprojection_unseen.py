@@ -30,6 +30,7 @@ import numpy as np
 import torch
 
 from nlos_spotlight.console import console
+from nlos_spotlight.render.sensor import SensorConfig
 
 
 def noisy(clean: torch.Tensor, person_free: torch.Tensor, sensor, gen: torch.Generator):
@@ -60,7 +61,7 @@ def main() -> None:
     from nlos_spotlight.data.tensors import finished_scene_dirs, load_scene_tensors
     from nlos_spotlight.lighting import policy_rng
     from nlos_spotlight.lighting.learned import policy_named
-    from nlos_spotlight.train.imaging import capture_sensor, form_images
+    from nlos_spotlight.train.imaging import form_images
 
     train_dirs = finished_scene_dirs(args.train, "train")
     mean_xy = np.concatenate([load_scene_tensors(d, [], samples="images").target.numpy()
@@ -72,7 +73,7 @@ def main() -> None:
     for i, d in enumerate(dirs):
         s = load_scene_tensors(d, [], samples="transport")
         bp, _ = room_backprojector(str(d))
-        sensor = capture_sensor(tuple(s.ambient.shape[:2]))
+        sensor = SensorConfig.at(tuple(s.ambient.shape[:2]))
         tgt = s.target.numpy()
         mean_err = np.linalg.norm(tgt - mean_xy, axis=1).mean() * 100
         idx = torch.arange(s.num_samples)

@@ -34,6 +34,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from nlos_spotlight.render.sensor import SensorConfig
+
 GOALS_MS = {"nlos32": 7.0, "ien": 10.0, "frame64": 50.0}
 """The issue's goals, one thread."""
 SCAN = Path(__file__).resolve().parents[2] / "shared" / "data" / "real-scans" / "icl_office2.obj"
@@ -185,7 +187,7 @@ def int8_on_room_model(room: Path) -> None:
     from nlos_spotlight.fit.train import capture_overrides, room_split
     from nlos_spotlight.models.inference import compile_network
     from nlos_spotlight.train.checkpoint import load_trained
-    from nlos_spotlight.train.imaging import capture_sensor, form_images, photographs
+    from nlos_spotlight.train.imaging import form_images, photographs
     import json
 
     fit = json.loads((room / "fit.json").read_text())["settings"]
@@ -193,7 +195,7 @@ def int8_on_room_model(room: Path) -> None:
     models = load_trained(room / "final.pt")
     split = room_split(room, cfg, ["normals"])
     face = json.loads((room / "report.json").read_text())["spot"]["face"]
-    sensor = capture_sensor(models.image_shape, capture_overrides(room, cfg))
+    sensor = SensorConfig.at(models.image_shape, capture_overrides(room, cfg))
     g = torch.Generator().manual_seed(0)
 
     def shots(s):

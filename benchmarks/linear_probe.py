@@ -19,7 +19,8 @@ import numpy as np
 import torch
 
 from nlos_spotlight.lighting.snr import candidate_snr
-from nlos_spotlight.train.imaging import capture_sensor, form_images, photographs
+from nlos_spotlight.render.sensor import SensorConfig
+from nlos_spotlight.train.imaging import form_images, photographs
 from nlos_spotlight.data.tensors import holdout_mask, load_split
 
 
@@ -31,7 +32,7 @@ def features(data: str, split: str, noise: bool, holdout: int) -> tuple[np.ndarr
         idx = torch.nonzero(s.trajectory[:, 0] < 0).flatten()
         img, free = form_images(s, idx, y)
         h, w = free.shape[:2]
-        ph = photographs(img, free, capture_sensor((h, w)), torch.Generator().manual_seed(0), noise, True)
+        ph = photographs(img, free, SensorConfig.at((h, w)), torch.Generator().manual_seed(0), noise, True)
         d = (ph.images - ph.background).reshape(len(idx), -1).double()
         xs.append((d / d.pow(2).mean(1, keepdim=True).sqrt()).numpy())
         ys.append(s.target[idx].double().numpy())

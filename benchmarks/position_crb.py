@@ -26,8 +26,8 @@ from nlos_spotlight.data.generate import plan
 from nlos_spotlight.data.scene_builder import SceneBuilder
 from nlos_spotlight.evaluate.crb import position_crb
 from nlos_spotlight.render.person import Person
+from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.render.transport import Renderer, RenderSettings
-from nlos_spotlight.train.imaging import capture_sensor
 from nlos_spotlight.world.body import posed_body
 from nlos_spotlight.world.rooms import generate_room
 
@@ -81,7 +81,7 @@ def main() -> None:
     for i, p in enumerate(rooms):
         faces = sorted({s[i] for s in spots.values() if s[i] >= 0})
         b, scene, r = room_renderer(cfg, p, data, faces)
-        sensor = capture_sensor(r.shape)
+        sensor = SensorConfig.at(r.shape)
         for spec in seen_test_specs(cfg, p, b, scene, args.people):
             body = posed_body(spec["params"], target_faces=cfg.body_faces)
             person = Person.from_mesh(body, spec["params"].albedo, cfg.person_samples,

@@ -51,9 +51,9 @@ from nlos_spotlight.evaluate.crb import PERSON
 from nlos_spotlight.evaluate.ideal_observer import ideal_observer
 from nlos_spotlight.lighting.snr import candidate_snr
 from nlos_spotlight.render.person import Person
+from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.render.sensor import auto_exposure, dn_per_radiance, noise_variance_dn
 from nlos_spotlight.render.transport import Renderer
-from nlos_spotlight.train.imaging import capture_sensor
 from nlos_spotlight.world.body import HEIGHT_RANGE_M, POSTURES, posed_body
 from position_crb import room_renderer, seen_test_specs
 
@@ -150,7 +150,7 @@ def main() -> None:
         face = oracle_face(data, p.id)
         b, scene, r = room_renderer(cfg, p, data, [face])
         y = r.spot_vector(0)
-        sensor = capture_sensor(r.shape)
+        sensor = SensorConfig.at(r.shape)
         static = r.render(y, None, components=("direct", "ambient")).image.double()
         exposure = auto_exposure(static, sensor)
         k = dn_per_radiance(exposure, sensor)
@@ -174,7 +174,7 @@ def main() -> None:
             acc = " ".join(f"{f} frame(s) {100 * obs[f].accuracy[0]:.0f}% / {100 * obs[f].accuracy[1]:.0f}%" for f in frames)
             print(f"room {p.id} person {spec['index']}: exposure {exposure:.3f} s, person SNR {snr[-1]:.1f}, "
                   f"six-way ideal observer (known / nuisances fitted): {acc}", flush=True)
-    out = {"person_snr_median": round(float(np.median(snr)), 2), "burst_frames": capture_sensor((1, 1)).burst_frames,
+    out = {"person_snr_median": round(float(np.median(snr)), 2), "burst_frames": SensorConfig.at((1, 1)).burst_frames,
            "split": args.split, "people": len(snr), "postures": list(POSTURES)}
     for f in frames:
         known = torch.stack([o.known for o in conf[f]]).mean(0)

@@ -62,6 +62,7 @@ import torch
 
 from nlos_spotlight.errors import NlosError
 from nlos_spotlight.fit.run import room_builder
+from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.render.variation import WORLD_EFFECTS
 
 COLUMNS = ("room", "reading", "condition", "magnitude", "posture_accuracy", "posture3_accuracy", "error_cm", "people")
@@ -103,7 +104,6 @@ class Room:
 def load_room(name: str, reading: str, path: Path, people: int) -> Room:
     from nlos_spotlight.fit.train import fit_train_config, room_layers, split_period
     from nlos_spotlight.train.checkpoint import load_trained
-    from nlos_spotlight.train.imaging import capture_sensor
 
     rep = json.loads((path / "report.json").read_text())
     cfg = fit_config(path)
@@ -122,7 +122,7 @@ def load_room(name: str, reading: str, path: Path, people: int) -> Room:
     idx = (keep + cfg.transport_people).tolist()  # dataset indices: image samples follow the full-transport ones
     tc = fit_train_config(cfg, path)
     return Room(name, reading, path, load_trained(path), test, int(rep["spot"]["face"]), np.asarray(rep["spot"]["aim"]),
-                capture_sensor(tuple(test.ambient.shape[:2]), tc.sensor), idx)
+                SensorConfig.at(tuple(test.ambient.shape[:2]), tc.sensor), idx)
 
 
 def fit_config(model: Path):

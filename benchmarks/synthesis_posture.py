@@ -67,10 +67,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from fitted_rooms_transfer import room_range  # noqa: E402
 from unseen_room_fit import read_fit_rows, room_interval, run_dir, static_people, write_rows  # noqa: E402
 
-from nlos_spotlight.data.static import read_static
+from nlos_spotlight.data.static import read_static  # noqa: E402
 from nlos_spotlight.data.store import atomic_npz  # noqa: E402
 from nlos_spotlight.evaluate.synthesis import (Bank, Synthesizer, albedo_fit, floor_cells, mean_body,  # noqa: E402
                                                read_photograph)
+from nlos_spotlight.render.sensor import SensorConfig  # noqa: E402
 
 COLUMNS = ["room", "know", "spot", "people", "accuracy", "accuracy3", "fit_accuracy", "chi2_true", "chi2_best",
            "error_cm", "fit_error_cm", "renders", "seconds"]
@@ -149,10 +150,10 @@ def photographs(test, face: int, frames: int, seed: int):
     (B, H, W) -- the same photographs as ``score_rooms``."""
     from nlos_spotlight.evaluate.seen import seen_config
     from nlos_spotlight.render.sensor import auto_exposure, dn_per_radiance, noise_variance_dn
-    from nlos_spotlight.train.imaging import capture, capture_sensor, form_images
+    from nlos_spotlight.train.imaging import capture, form_images
 
     net_cfg = seen_config(1).net
-    sensor = capture_sensor(tuple(test.ambient.shape[:2]), {"burst_frames": frames} if frames > 1 else {})
+    sensor = SensorConfig.at(tuple(test.ambient.shape[:2]), {"burst_frames": frames} if frames > 1 else {})
     y = torch.zeros(len(test.faces))
     y[face] = 1.0
     gen = torch.Generator().manual_seed(20_000 + seed)

@@ -16,8 +16,9 @@ import torch.nn.functional as F
 
 from ..lighting import Illumination, policy_rng
 from ..lighting.learned import policy_named
+from ..render.sensor import SensorConfig
 from ..train.checkpoint import TrainedModels
-from ..train.imaging import capture, capture_sensor
+from ..train.imaging import capture
 from ..data.tensors import SceneTensors
 
 
@@ -73,7 +74,7 @@ def predict_scene(models: TrainedModels, s: SceneTensors, ill: Illumination, gen
                   batch: int = 64) -> tuple[np.ndarray, np.ndarray]:
     """(N, 2) positions and (N, 6) posture probabilities for every sample of ``s`` under ``ill``."""
     h, w = s.ambient.shape[:2]
-    sensor = capture_sensor((h, w), models.config.sensor)
+    sensor = SensorConfig.at((h, w), models.config.sensor)
     y = ill.spot_vector(len(s.faces))
     pos, prob = [], []
     with torch.no_grad():

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..evaluate.report import Block, write_report
+from ..render.sensor import SensorConfig
 from ..world.body import POSTURES
 from .config import FitConfig
 
@@ -33,7 +34,6 @@ def capture_record(out: Path, cfg: FitConfig, face: int) -> dict:
     import torch
 
     from ..render.sensor import auto_exposure
-    from ..train.imaging import capture_sensor
     from .spot import scene_dir
 
     from ..data.static import read_static
@@ -41,7 +41,7 @@ def capture_record(out: Path, cfg: FitConfig, face: int) -> dict:
 
     st = read_static(scene_dir(out), "direct", "ambient")
     free = st["direct"][face] + st["ambient"]
-    sensor = capture_sensor(free.shape[:2], capture_overrides(out, cfg))
+    sensor = SensorConfig.at(free.shape[:2], capture_overrides(out, cfg))
     t = auto_exposure(torch.as_tensor(free, dtype=torch.float32), sensor)
     return {"burst_frames": cfg.burst_frames, "exposure_s": t, "burst_s": t * cfg.burst_frames,
             "metering": sensor.metering, "target_mean_fraction": sensor.target_mean_fraction,

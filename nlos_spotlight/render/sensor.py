@@ -180,11 +180,20 @@ class SensorConfig:
         return cls(**d)
 
     @classmethod
+    def at(cls, image_shape: tuple[int, int], *overrides: dict | None) -> "SensorConfig":
+        """The one way to a photograph's sensor: the defaults, then each mapping of ``overrides`` in
+        order (a scene's ``sensor`` block, a run's capture settings such as ``burst_frames``), at
+        image (H, W). Procedural scenes carry no overrides."""
+        merged: dict = {}
+        for o in overrides:
+            merged.update(o or {})
+        h, w = image_shape
+        return cls.from_dict({**merged, "width": w, "height": h})
+
+    @classmethod
     def for_scene(cls, scene, overrides: dict | None = None) -> "SensorConfig":
-        """The one sensor of a scene: defaults, the scene's ``sensor`` overrides, then ``overrides``
-        (a capture setting such as ``burst_frames``), at the camera's resolution."""
-        return cls.from_dict({**(getattr(scene, "sensor", None) or {}), **(overrides or {}),
-                              "width": scene.camera.width, "height": scene.camera.height})
+        """:meth:`at` the camera's resolution with the scene's ``sensor`` block, then ``overrides``."""
+        return cls.at((scene.camera.height, scene.camera.width), getattr(scene, "sensor", None), overrides)
 
     def for_tracking(self, frame_rate_hz: float) -> "SensorConfig":
         """Settings for one video frame per time step: exposure at most one frame period, no burst."""

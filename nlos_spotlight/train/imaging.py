@@ -153,13 +153,6 @@ def capture(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor | None, mode: st
     return ph
 
 
-def capture_sensor(image_shape: tuple[int, int], overrides: dict | None = None) -> SensorConfig:
-    """The sensor of a dataset's photographs: the defaults (procedural scenes carry no ``sensor``
-    overrides), the run's capture settings ``overrides`` (e.g. ``burst_frames``), at (H, W)."""
-    h, w = image_shape
-    return SensorConfig.from_dict({**(overrides or {}), "width": w, "height": h})
-
-
 def radiance_variance(frame: torch.Tensor, reference: torch.Tensor, cfg: SensorConfig) -> torch.Tensor:
     """Noise variance per pixel (radiance units squared) of a photograph whose noise-free value is
     ``frame``, exposed as the camera meters the person-free ``reference``; a difference of

@@ -31,7 +31,7 @@ from ..models.registry import build_network
 from ..render.sensor import SensorConfig
 from ..world.body import clothing_albedo
 from .config import TrainConfig
-from .imaging import capture, capture_sensor
+from .imaging import capture
 from ..data.tensors import SceneTensors, load_split, room_samples
 
 
@@ -104,7 +104,7 @@ class Trainer:
         self.device = self.device_for(cfg)
         self.scenes = [s.to(self.device) for s in scenes]
         h, w = scenes[0].ambient.shape[:2]
-        self.sensor = sensor or capture_sensor((h, w), cfg.sensor)
+        self.sensor = sensor or SensorConfig.at((h, w), cfg.sensor)
         torch.manual_seed(cfg.seed)
         ien_cfg = dataclasses.replace(cfg.ien, in_features=scenes[0].x.shape[1])
         self.ien, self.net = IEN(ien_cfg).to(self.device), build_network(cfg.arch, cfg.net).to(self.device)

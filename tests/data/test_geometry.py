@@ -11,8 +11,9 @@ from nlos_spotlight.errors import NlosError
 from nlos_spotlight.models.nlos_net import NLOSNetConfig
 from nlos_spotlight.models.registry import build_network
 from nlos_spotlight.render.camera import project
+from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.scene import load_scene
-from nlos_spotlight.train.imaging import capture, capture_sensor
+from nlos_spotlight.train.imaging import capture
 
 
 def test_room_geometry_maps_back_onto_its_own_pixels(micro_scene):
@@ -49,7 +50,7 @@ def test_geometry_input_lights_where_the_spot_lands(micro_scene):
     y[t] = 1.0
     cfg = NLOSNetConfig(geometry=True, background_subtract=True, backbone="resnet10-narrow", stem="half")
     idx = torch.arange(2)
-    ph = capture(s, idx, y, "spot", capture_sensor(s.ambient.shape[:2]), torch.Generator().manual_seed(0), True, cfg)
+    ph = capture(s, idx, y, "spot", SensorConfig.at(s.ambient.shape[:2]), torch.Generator().manual_seed(0), True, cfg)
     assert ph.geometry.shape == (2, GEOMETRY_CHANNELS, *s.ambient.shape[:2])
     lit = ph.geometry[0, 9]
     lum = s.direct[t].mean(-1)

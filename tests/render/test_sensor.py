@@ -221,3 +221,19 @@ def test_native_reference_clips_each_photosite():
     out = sensor_capture_native(torch.full((2, 2, 3), level, dtype=torch.float64), EXPOSURE, cfg, generator=gen(5))
     assert torch.all(out.dn == cfg.full_scale_dn)
     assert bool(out.clipped.all())
+
+
+def test_one_way_to_a_sensor():
+    """``SensorConfig.at``: defaults, then each overrides mapping in order (later wins), at (H, W);
+    ``for_scene`` is it at the camera's resolution with the scene's block first."""
+    from types import SimpleNamespace
+
+    from nlos_spotlight.render.sensor import SensorConfig
+
+    d = SensorConfig()
+    s = SensorConfig.at((24, 32), {"burst_frames": 4, "f_number": 2.8}, None, {"burst_frames": 16})
+    assert (s.height, s.width, s.burst_frames, s.f_number) == (24, 32, 16, 2.8)
+    assert s.read_noise_e == d.read_noise_e
+    cam = SimpleNamespace(width=32, height=24)
+    scene = SimpleNamespace(camera=cam, sensor={"burst_frames": 4, "f_number": 2.8})
+    assert SensorConfig.for_scene(scene, {"burst_frames": 16}) == s

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import torch
 
+from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.render.sensor import auto_exposure
-from nlos_spotlight.train.imaging import add_sensor_noise, capture_sensor, radiance_variance
+from nlos_spotlight.train.imaging import add_sensor_noise, radiance_variance
 
 
 def test_radiance_variance_matches_the_drawn_noise():
-    sensor = capture_sensor((4, 4))
+    sensor = SensorConfig.at((4, 4))
     reference = torch.full((4, 4, 3), 2.0)
     frame = torch.linspace(0.2, 3.0, 48).reshape(4, 4, 3)  # below full scale: nothing clips
     exposure = auto_exposure(reference, sensor)
