@@ -69,6 +69,7 @@ def write_fit_report(out: Path, cfg: FitConfig, room: dict, spot: dict, result, 
                     "posture3_accuracy": result.posture3_accuracy / 100, "error_cm": float(err_cm.mean()),
                     "median_error_cm": float(np.median(err_cm)), "mean_answer_cm": result.mean_answer_cm,
                     "confusion": result.confusion, "postures": list(POSTURES)},
+        "spot_policies": spot.get("policies"),
         "capture": capture_record(out, cfg, spot["face"]),
         "training": {"people": cfg.people, "policy": cfg.policy, "steps": result.steps,
                      "seconds": result.seconds, "network": "resnet10-narrow (half stem), photograph minus "
@@ -89,6 +90,16 @@ def write_fit_report(out: Path, cfg: FitConfig, room: dict, spot: dict, result, 
     return report
 
 
+def _policy_blocks(sp: dict | None) -> list[Block]:
+    """The spot each policy would pick and its SNR against the best candidate's."""
+    if not sp:
+        return []
+    rows = [[name, str(v["face"]), f"{v['snr_over_best']:.2f}"] for name, v in sp["policies"].items()]
+    return [Block("p", "Each spot policy's pick in this room and its mean NLOS SNR over the best landed "
+                       "candidate's (the room's full-transport people): what it gives up before training."),
+            Block("table", header=["policy", "face", "SNR / best"], rows=rows)]
+
+
 def _blocks(r: dict) -> list[Block]:
     h, s, c = r["heldout"], r["spot"], r["capture"]
     rm = r["room"]
@@ -102,6 +113,7 @@ def _blocks(r: dict) -> list[Block]:
                      f"{s['tilt_deg']:+.1f}", f"{s['distance_m']:.2f}"]]),
         Block("image", "The room (z up), the camera, the projector's beam to the spot and the hidden region",
               image="figures/room.png"),
+        *_policy_blocks(r.get("spot_policies")),
         Block("h2", "Capture"),
         Block("p", f"A burst of {c['burst_frames']} RAW frames of {1000 * c['exposure_s']:.0f} ms each "
                    f"({c['burst_s']:.1f} s) at f/{c['f_number']:g}, average metering at "

@@ -120,6 +120,14 @@ def render_people(dcfg, data: Path, workers: int, progress: bool) -> None:
     generate(dcfg, data, progress=False)  # every part is there: done.json and the manifest
 
 
+def recorded(settings: dict) -> dict:
+    """A ``fit.json``'s settings with those its version did not have yet at the value that version
+    used (``config.BEFORE``): a setting added since is no difference where it keeps that behaviour."""
+    from .config import BEFORE
+
+    return {**BEFORE, **settings} if isinstance(settings, dict) else settings
+
+
 def check_out(out: Path, record: dict, resume: bool) -> None:
     """Refuse to mix fits: the directory ``out`` holds nothing but the lock, or (with ``resume``) a fit
     with the same settings. Nothing is written here (``fit_room`` refused a file ``out`` before its
@@ -132,7 +140,7 @@ def check_out(out: Path, record: dict, resume: bool) -> None:
             raise NlosError(f"{path}: corrupted (invalid JSON); remove {out} to start over") from None
         if not resume:
             raise NlosError(f"{out} already holds a fit: pass --resume to continue it, or choose another --out")
-        a, b = old.get("settings", {}), record["settings"]
+        a, b = recorded(old.get("settings", {})), record["settings"]
         diff = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k) and k not in RESUMABLE_CHANGES)
         if diff:
             raise NlosError(f"{out} holds a fit with other settings (differs in: {', '.join(diff)})")
@@ -179,7 +187,7 @@ def reuse_people(source: Path, out: Path, record: dict) -> None:
         old = json.loads((source / "fit.json").read_text())["settings"]
     except (OSError, json.JSONDecodeError, KeyError, TypeError):
         raise NlosError(f"--people-from: {source} is not a room model (no readable fit.json)") from None
-    new = record["settings"]
+    old, new = recorded(old), record["settings"]
     diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k) and k not in TRAINING_ONLY)
     if diff:
         raise NlosError(f"--people-from: {source} was fitted with other settings (differs in: {', '.join(diff)})")
@@ -291,12 +299,15 @@ def _fit_steps(room: str, out: Path, cfg: FitConfig, flags: dict, record: dict, 
                 raise NlosError(f"{exc} (nothing was kept in {out})") from None
         raise
     console.rule("3/5 spot")
-    from .spot import policy_face, spot_record
+    from .spot import policy_face, spot_policies, spot_record
     from .train import room_layers, room_split, train_room
 
     split = room_split(out, cfg, ["normals"])
     spot = spot_record(out, extra[0] if extra else policy_face(cfg, split))
     console.print(spot["explain"])
+    spot["policies"] = spot_policies(out, cfg, split, spot["face"])
+    console.print("spot SNR over the best candidate's: " + ", ".join(
+        f"{k} {v['snr_over_best']:.2f}" for k, v in spot["policies"]["policies"].items()))
     layers = room_layers(out, spot["aim"])  # the static light the capture variation moves
     clock.lap("spot_s")
     if cfg.shadow_samples > 0:  # the light each body blocks, under the chosen spot

@@ -74,6 +74,30 @@ def spot_record(out: Path, face: int) -> dict:
             "convention": aim.to_dict()["convention"]}
 
 
+REPORTED_POLICIES = ("oracle", "adaptive", "center", "random")
+"""The fixed spot policies the fit's report compares (the chosen one among them)."""
+
+
+def spot_policies(out: Path, cfg, split, chosen: int) -> dict:
+    """``report.json``'s ``spot_policies``: for each of :data:`REPORTED_POLICIES` (and the chosen
+    spot) the face it picks in this room and that face's mean NLOS SNR over the best landed
+    candidate's (``lighting.snr``, the room's full-transport people): what each policy would give
+    up against the physics search, before any training."""
+    import dataclasses
+
+    from ..lighting.snr import candidate_snr
+
+    snr = np.asarray(candidate_snr(scene_dir(out)), np.float64)
+    landed = split.pool.landed.cpu().numpy().astype(bool)
+    best = float(snr[landed].max()) if landed.any() else float("nan")
+    rows = {}
+    for name in REPORTED_POLICIES:
+        face = policy_face(dataclasses.replace(cfg, policy=name, checkpoint=""), split)
+        rows[name] = {"face": face, "snr_over_best": float(snr[face] / best) if face >= 0 else 0.0}
+    rows["chosen"] = {"face": int(chosen), "snr_over_best": float(snr[chosen] / best)}
+    return {"best_snr": best, "policies": rows}
+
+
 def policy_face(cfg, split) -> int:
     """The face a fixed spot policy picks in the fit's room (what the trainer will use: the same
     policy function and random key, ``train.loop.fixed_illuminations``)."""

@@ -48,6 +48,16 @@ def test_report_matches_its_contract(fitted):
     assert isinstance(s["face"], int) and len(s["aim"]) == 3
     assert h["people"] == TINY.heldout and 0 <= h["posture_accuracy"] <= 1 and np.isfinite(h["error_cm"])
     assert on_disk["capture"]["burst_frames"] == TINY.burst_frames
+    # every policy's pick against the physics search: the oracle's is the best landed candidate (1.0),
+    # the chosen spot is the oracle's (TINY's policy), each ratio the candidate SNR of lighting.snr
+    from nlos_spotlight.lighting.snr import candidate_snr
+
+    sp = on_disk["spot_policies"]
+    snr = candidate_snr(next((out / "data" / "scenes").iterdir()))
+    assert sp["policies"]["oracle"]["snr_over_best"] == pytest.approx(1.0)
+    assert sp["policies"]["chosen"]["face"] == sp["policies"]["oracle"]["face"] == s["face"]
+    for v in sp["policies"].values():
+        assert v["snr_over_best"] == pytest.approx(snr[v["face"]] / sp["best_snr"]) and 0 <= v["snr_over_best"] <= 1
     # the aim point is the stored candidate's, and pan/tilt reproduce the beam's direction (closed form)
     st = np.load(next((out / "data" / "scenes").iterdir()) / "static.npz")
     np.testing.assert_allclose(s["aim"], st["aim_points"][s["face"]], atol=1e-9)
@@ -415,6 +425,23 @@ def test_world_variation_trains_on_each_person_in_a_drawn_world(fitted, tmp_path
     light = torch.einsum("t,btr,brhwc->bhwc", y, w.u, w.v)
     np.testing.assert_allclose(light.numpy(), got["nlos"], rtol=1e-6, atol=1e-12)
     np.testing.assert_allclose(w.nlos_ambient.numpy(), got["nlos_ambient"], rtol=1e-6, atol=1e-12)
+
+
+def test_a_fit_recorded_before_a_setting_existed_resumes(fitted, tmp_path):
+    """A ``fit.json`` written before a setting existed resumes under today's defaults where the
+    setting keeps that version's behaviour (``config.BEFORE``), and is refused where it does not."""
+    from nlos_spotlight.errors import NlosError
+    from nlos_spotlight.fit.run import check_out
+
+    out, _ = fitted
+    rec = json.loads((out / "fit.json").read_text())
+    old = dict(rec, settings={k: v for k, v in rec["settings"].items() if k != "world_variation"})
+    (tmp_path / "fit.json").write_text(json.dumps(old))
+    check_out(tmp_path, rec, resume=True)  # world_variation 'ideal' then and now
+    old = dict(rec, settings={k: v for k, v in rec["settings"].items() if k != "pixel_footprint"})
+    (tmp_path / "fit.json").write_text(json.dumps(old))
+    with pytest.raises(NlosError, match="differs in: pixel_footprint"):
+        check_out(tmp_path, rec, resume=True)  # at the pixel's centre then, a footprint now
 
 
 def test_a_fit_refused_before_any_person_leaves_nothing(room_dir, tmp_path, monkeypatch, capsys):
