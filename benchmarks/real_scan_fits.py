@@ -1,7 +1,7 @@
 """Fit the three real scans of ``../shared/data/real-scans`` with ``nlos fit`` and tabulate them.
 
 Each room's setup (camera, projector, hidden region: what a person would pick) is a committed
-config, ``benchmarks/configs/rooms/NAME.yaml``; every fit resumes where it stopped. Writes
+config, ``benchmarks/configs/rooms/NAME.yaml`` (``nlos fit --config``); every fit resumes where it stopped. Writes
 ``--out``/real-scan-fits.csv (room, people, posture and grouped accuracy, error, mean-position
 answer, spot, pan/tilt, burst, generation and total time) and prints the command of each fit.
 
@@ -17,21 +17,12 @@ import shlex
 import sys
 from pathlib import Path
 
-import yaml
-
 CONFIGS = Path(__file__).parent / "configs" / "rooms"
-FLAGS = ("camera_position", "camera_look_at", "projector_position", "hidden_region", "up")
 
 
 def fit_command(name: str, out: Path, extra: list[str]) -> list[str]:
-    """The ``nlos fit`` arguments of a committed room config."""
-    cfg = yaml.safe_load((CONFIGS / f"{name}.yaml").read_text())
-    args = ["fit", cfg["room"], "--out", str(out / name)]
-    for k in FLAGS:
-        if k in cfg:
-            v = cfg[k]
-            args += [f"--{k.replace('_', '-')}", ",".join(str(x) for x in v) if isinstance(v, list) else str(v)]
-    return args + extra
+    """The ``nlos fit`` arguments of a committed room config (``nlos fit --config``)."""
+    return ["fit", "--config", str(CONFIGS / f"{name}.yaml"), "--out", str(out / name)] + extra
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -25,6 +25,10 @@ draws for every condition:
   ``footprint-offsets`` and ``relay-offsets`` (its pixel offsets or shadow relay points drawn
   apart), ``relay-averaged`` (its shadow averaged with that second draw: half the Monte Carlo
   variance) and ``shadow-averaged`` (the camera photographs' shadow averaged with the second draw);
+  ``camera-fit-footprint`` (the camera photographs with the person's light at the fit's 8 x 8
+  footprint, other offsets) and ``camera-gain-corrected`` (their 16 x 16 light divided by the
+  per-pixel gain over the fit's light, cross-fitted on the other half of the people,
+  :func:`footprint_gain`): is the camera-photograph gap the fit's fixed footprint pattern?
 * ``mitsuba`` (``--mitsuba SPP``): with-minus-without photographs by Mitsuba 3's particle tracer
   at 6 bounces (:func:`mitsuba_people`);
 * ``capture-all``: every capture effect at 1x ``tripod`` together, on the fit's person light;
@@ -66,7 +70,7 @@ from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.render.variation import WORLD_EFFECTS
 
 COLUMNS = ("room", "reading", "condition", "magnitude", "posture_accuracy", "posture3_accuracy", "error_cm", "people")
-CAMERA_CONDITIONS = ("footprint-offsets", "relay-offsets", "relay-averaged", "shadow-averaged", "pixel-integrated", "pixel-integrated-2x2", "shadow", "camera", "clothing-dark", "clothing-light",
+CAMERA_CONDITIONS = ("footprint-offsets", "camera-fit-footprint", "camera-gain-corrected", "relay-offsets", "relay-averaged", "shadow-averaged", "pixel-integrated", "pixel-integrated-2x2", "shadow", "camera", "clothing-dark", "clothing-light",
                      "all", "capture-all", "camera-mitsuba-people", "mitsuba")
 CLOTHING = {"clothing-dark": 0.05, "clothing-light": 0.9}
 SHADOW_SAMPLES = 1024
@@ -345,6 +349,34 @@ def mitsuba_people(room: Room, cache: Path, spp: int, count: int, progress: bool
     return {"mitsuba_presence": np.stack(out), "mitsuba_noise": np.asarray(noise)}
 
 
+def footprint_gain(fit_light: np.ndarray, camera_light: np.ndarray) -> np.ndarray:
+    """(N, H, W, 3) per-pixel gain of the camera photographs' person light over the fit's, each
+    person's from the other half of the people (cross-fitted: no person corrects itself): a fixed
+    pattern of the fit's footprint that a network can learn (``camera-gain-corrected``)."""
+    n = len(fit_light)
+    halves = [np.arange(n) < n // 2, np.arange(n) >= n // 2]
+    out = np.ones_like(camera_light)
+    for mine, other in (halves, halves[::-1]):
+        f, c = fit_light[other].sum(0), camera_light[other].sum(0)
+        ok = np.abs(f) > 1e-6 * np.abs(f).max()
+        out[mine] = np.clip(np.where(ok, c / np.where(ok, f, 1.0), 1.0), 0.5, 2.0)
+    return out
+
+
+def footprint_pattern(fit_light: np.ndarray, camera_light: np.ndarray, offset_light: np.ndarray) -> dict:
+    """How far the people-mean person light of the camera photographs (16 x 16) and of the fit's
+    footprint at other offsets is from the fit's own (relative L2), and how alike the per-pixel gain
+    maps of two halves of the people are (correlation): a fixed pattern, not noise."""
+    rel = lambda a, b: float(np.linalg.norm(a - b) / np.linalg.norm(b))
+    n = len(fit_light)
+    gain = lambda sl: np.clip(camera_light[sl].sum(0) / np.where(np.abs(fit_light[sl].sum(0)) > 0,
+                                                                  fit_light[sl].sum(0), 1.0), 0.0, 3.0)
+    a, b = gain(slice(0, n // 2)), gain(slice(n // 2, n))
+    return {"mean_light_camera_vs_fit": rel(camera_light.mean(0), fit_light.mean(0)),
+            "mean_light_fit_offsets_vs_fit": rel(offset_light.mean(0), fit_light.mean(0)),
+            "gain_map_halves_correlation": float(np.corrcoef(a.ravel(), b.ravel())[0, 1])}
+
+
 def with_person_light(test, spot: int, nlos: np.ndarray, nlos_ambient: np.ndarray):
     """``test`` whose people's light under ``spot`` is ``nlos`` (N, H, W, 3) (one stored column, its
     shadow term included or not as given: the stored one is dropped)."""
@@ -453,6 +485,12 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float]):
     yield "shadow", 1.0, with_person_light(t, room.spot, lit.double().numpy() + c["cam_nlos_shadow"],
                                            amb.double().numpy()), ideal
     yield "camera", 1.0, cam(albedo), ideal
+    if "offset_nlos" in c:  # is the gap the fit's footprint pattern? the same photographs at the fit's footprint
+        yield "camera-fit-footprint", 1.0, with_person_light(t, room.spot, c["offset_nlos"] + c["cam_nlos_shadow"],
+                                                             c["cam_nlos_ambient"]), ideal
+        g = footprint_gain(lit.double().numpy(), c["cam_nlos"])
+        yield "camera-gain-corrected", 1.0, with_person_light(t, room.spot, c["cam_nlos"] / g + c["cam_nlos_shadow"],
+                                                              c["cam_nlos_ambient"]), ideal
     for name, a in CLOTHING.items():
         yield name, 1.0, cam(np.full_like(albedo, a)), ideal
     yield "all", 1.0, cam(albedo), tripod.capture_effects
@@ -610,7 +648,8 @@ def table(csv_path: Path) -> str:
             if p is not None:  # what 100 people resolve: the paired drop's standard error
                 d, se = float(p["posture_drop"]), float(p["posture_drop_se"])
                 unresolved = abs(d - pts) < 2 * se or float(p["error_ratio_lo"]) <= ratio <= float(p["error_ratio_hi"])
-                line += (f" (paired {d:+.1f} ± {se:.1f} points, error ratio 95% {float(p['error_ratio_lo']):.2f}-"
+                line += (f" ({worst_row['condition']} x{float(worst_row['magnitude']):g} paired: {d:+.1f} ± {se:.1f} "
+                         f"points, error ratio 95% {float(p['error_ratio_lo']):.2f}-"
                          f"{float(p['error_ratio_hi']):.2f}{'; within the noise of the goal' if unresolved else ''})")
             lines.append(line)
     return "\n".join(lines)
@@ -618,7 +657,7 @@ def table(csv_path: Path) -> str:
 
 def merge(out: Path, parts: list[Path]) -> None:
     """One CSV (and flags CSV) from the per-room runs, in their order."""
-    for suffix in ("", "-flags"):
+    for suffix in ("", "-flags", "-paired"):
         rows, header = [], None
         for p in parts:
             f = p.with_name(p.stem + suffix + ".csv")
@@ -700,6 +739,9 @@ def main(argv=None) -> int:
             if room.test.shadow is not None:
                 sh = room.test.shadow.double().numpy()
                 notes[f"{name}:{reading}"]["stored_shadow_gap"] = rel(sh, people["cam_nlos_shadow"])
+            if "offset_nlos" in people:
+                notes[f"{name}:{reading}"]["footprint_pattern"] = footprint_pattern(stored, people["cam_nlos"],
+                                                                                     people["offset_nlos"])
         notes.setdefault(f"{name}:{reading}", {})["person_light_removed"] = person_light_removed(room)
         notes[f"{name}:{reading}"]["sensor_noise_median"] = float(np.median(sensor_noise(room, args.seed)))
         flags += flag_rates(room, [float(m) for m in args.flag_multiples.split(",")], args.flag_captures, args.seed)

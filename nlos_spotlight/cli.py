@@ -219,6 +219,17 @@ def cmd_fit(args: argparse.Namespace) -> None:
 
     if args.preset not in PRESETS:
         raise NlosError(f"--preset: expected one of {', '.join(PRESETS)}, got {args.preset!r}")
+    base = PRESETS[args.preset]
+    if args.config:  # a room config: its setup unless a flag says otherwise, its fit settings on the preset
+        from .config_file import apply_fields, load_room_config
+
+        rc = load_room_config(args.config)
+        for k in ("room", "camera_position", "camera_look_at", "projector_position", "hidden_region", "up"):
+            if k in rc and getattr(args, k) is None:
+                setattr(args, k, rc[k])
+        base = apply_fields(base, rc["fit"], args.config, "fit.")
+    if args.room is None:
+        raise NlosError("fit: give the room (a scan or scene directory) or --config ROOM.yaml with a room")
     changes = {k: getattr(args, k) for k in ("people", "policy", "seed", "burst", "workers", "capture_preset",
                                              "pixel_footprint", "shadow_samples", "shadow_relay", "clothing",
                                              "world_variation")
@@ -229,7 +240,7 @@ def cmd_fit(args: argparse.Namespace) -> None:
         changes["project_nuisance"] = False
     if args.checkpoint:
         changes["checkpoint"] = args.checkpoint
-    cfg = dataclasses.replace(PRESETS[args.preset], **changes)
+    cfg = dataclasses.replace(base, **changes)
     flags = {k: getattr(args, k) for k in ("camera_position", "camera_look_at", "projector_position")
              if getattr(args, k) is not None}
     flags = {k: _point(v, "--" + k.replace("_", "-")).tolist() for k, v in flags.items()}
@@ -435,7 +446,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_spotlight)
     f = sub.add_parser("fit", help="a room (scan or scene) in, a trained room model out: spot, synthetic "
                                    "people, network, report")
-    f.add_argument("room", help="nlos-scene/1 directory or a bare PLY/OBJ scan (meters, any up axis)")
+    f.add_argument("room", nargs="?", help="nlos-scene/1 directory or a bare PLY/OBJ scan (meters, any up axis)")
+    f.add_argument("--config", help="a room config (YAML): room (relative to the file), camera_position, "
+                                    "camera_look_at, projector_position, hidden_region, up, and fit: settings; "
+                                    "flags given here win")
     f.add_argument("--out", required=True, help="room model directory (final.pt, report.json, report.html)")
     f.add_argument("--camera-position", help="X,Y,Z (m, z-up frame): default derived from the mesh bounds, printed")
     f.add_argument("--camera-look-at", help="X,Y,Z (m), with --camera-position")

@@ -17,23 +17,65 @@ def load_config_file(spec: str, presets: dict, default_base: str = "tiny"):
     path = Path(spec)
     if not path.is_file():
         raise NlosError(f"config: '{spec}' is neither a preset ({', '.join(presets)}) nor a file")
+    d = _yaml_mapping(path)  # an alias repeats a subtree: a few hundred bytes expand to billions of nodes
+    base = d.pop("base", default_base)
+    if not isinstance(base, str) or base not in presets:
+        raise NlosError(f"{path}: base '{base}' is not a preset ({', '.join(presets)})")
+    cfg = apply_fields(dataclasses.replace(presets[base], name=path.stem), d, str(path))
+    return cfg, path
+
+
+ROOM_KEYS = ("room", "camera_position", "camera_look_at", "projector_position", "hidden_region", "up", "fit")
+"""Keys of a room config (``nlos fit --config``): the room, its setup, and ``fit`` settings."""
+
+
+def load_room_config(path: str) -> dict:
+    """A room config file (``nlos fit --config``): the room (a path relative to the file), the
+    camera, projector, hidden region and up axis as ``nlos fit``'s flags take them, and ``fit``, a
+    mapping of ``FitConfig`` fields. Flag-style values come back as the flags' strings."""
+    p = Path(path)
+    if not p.is_file():
+        raise NlosError(f"--config: {path} is not a file")
+    d = _yaml_mapping(p)
+    unknown = sorted(set(d) - set(ROOM_KEYS))
+    if unknown:
+        raise NlosError(f"{p}: unknown key '{unknown[0]}' (a room config holds {', '.join(ROOM_KEYS)})")
+    out = {}
+    if "room" in d:
+        if not isinstance(d["room"], str) or not d["room"]:
+            raise NlosError(f"{p}: room must be a path (relative to the config file)")
+        out["room"] = str((p.parent / d["room"]).resolve()) if not Path(d["room"]).is_absolute() else d["room"]
+    sizes = {"camera_position": 3, "camera_look_at": 3, "projector_position": 3, "hidden_region": 4}
+    for k, n in sizes.items():
+        if k in d:
+            v = d[k]
+            if not isinstance(v, list) or len(v) != n or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                                                 for x in v):
+                raise NlosError(f"{p}: {k} must be a list of {n} numbers, got {v!r}")
+            out[k] = ",".join(str(int(x)) if float(x).is_integer() else repr(float(x)) for x in v)  # as typed
+    if "up" in d:
+        out["up"] = str(d["up"])
+    fit = d.get("fit", {})
+    if not isinstance(fit, dict):
+        raise NlosError(f"{p}: fit must be a mapping of fit settings, got {fit!r}")
+    out["fit"] = fit
+    return out
+
+
+def _yaml_mapping(path: Path) -> dict:
+    """A YAML file's top-level mapping, aliases refused (see :func:`load_config_file`)."""
     import yaml
 
     try:
         text = path.read_text()
         if any(isinstance(e, yaml.AliasEvent) for e in yaml.parse(text, Loader=yaml.SafeLoader)):
-            # an alias repeats a subtree: a few hundred bytes of them expand to billions of nodes
             raise NlosError(f"{path}: YAML aliases (*name) are not allowed in a config file; write the values out")
         d = yaml.safe_load(text) or {}
     except (yaml.YAMLError, UnicodeDecodeError) as exc:
         raise NlosError(f"{path}: invalid YAML ({str(exc).splitlines()[0]})") from None
     if not isinstance(d, dict):
         raise NlosError(f"{path}: expected a mapping of config fields")
-    base = d.pop("base", default_base)
-    if not isinstance(base, str) or base not in presets:
-        raise NlosError(f"{path}: base '{base}' is not a preset ({', '.join(presets)})")
-    cfg = apply_fields(dataclasses.replace(presets[base], name=path.stem), d, str(path))
-    return cfg, path
+    return d
 
 
 def apply_fields(cfg, values: dict, where: str, prefix: str = ""):

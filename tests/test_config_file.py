@@ -3,6 +3,9 @@ same one-line errors, nested training fields merged."""
 
 from __future__ import annotations
 
+import dataclasses
+from pathlib import Path
+
 import pytest
 
 from nlos_spotlight.data.config import PRESETS as DATA_PRESETS
@@ -50,3 +53,39 @@ def test_fields_on_a_base_preset(tmp_path):
     f.write_text("samples_per_scene: 0\n")  # the dataset's own validation still runs
     with pytest.raises(NlosError, match="samples_per_scene must be at least 1"):
         load_config(str(f))
+
+
+def test_fit_config_file_is_the_flags(tmp_path, monkeypatch, capsys):
+    """``nlos fit --config ROOM.yaml``: the room (relative to the file), its setup and its fit
+    settings reach the fit exactly as the same flags do; a flag given beside the file wins; a bad
+    file is one line."""
+    import nlos_spotlight.fit.run as run
+    from nlos_spotlight.cli import main
+
+    seen = []
+    monkeypatch.setattr(run, "fit_room", lambda room, out, cfg, flags, **kw: seen.append((room, cfg, flags)))
+    scan = tmp_path / "scans" / "room.ply"
+    scan.parent.mkdir()
+    scan.write_text("ply")
+    (tmp_path / "cfg").mkdir()
+    (tmp_path / "cfg" / "room.yaml").write_text(
+        "room: ../scans/room.ply\ncamera_position: [0.35, -0.3, 0.09]\ncamera_look_at: [0.9, -2, -0.3]\n"
+        "hidden_region: [-1, 0, 1, 2]\nup: z\nfit: {people: 30, epochs: 2.5}\n")
+    assert main(["fit", "--config", str(tmp_path / "cfg" / "room.yaml"), "--out", str(tmp_path / "a"),
+                 "--preset", "tiny", "--quiet"]) == 0
+    assert main(["fit", str(scan), "--out", str(tmp_path / "b"), "--preset", "tiny", "--quiet", "--people", "30",
+                 "--camera-position", "0.35,-0.3,0.09", "--camera-look-at", "0.9,-2,-0.3",
+                 "--hidden-region", "-1,0,1,2", "--up", "z"]) == 0
+    (ra, ca, fa), (rb, cb, fb) = seen
+    assert Path(ra).resolve() == scan.resolve() and fa == fb
+    assert dataclasses.replace(ca, epochs=cb.epochs) == cb and ca.epochs == 2.5
+    assert main(["fit", "--config", str(tmp_path / "cfg" / "room.yaml"), "--out", str(tmp_path / "c"),
+                 "--preset", "tiny", "--quiet", "--people", "12"]) == 0
+    assert seen[-1][1].people == 12
+    for text, match in (("camera_position: [1, 2]\n", "list of 3 numbers"), ("fit: {peeple: 3}\n", "unknown key"),
+                        ("color: red\n", "unknown key 'color'"), ("fit: 3\n", "fit must be a mapping")):
+        (tmp_path / "bad.yaml").write_text("room: x.ply\n" + text)
+        capsys.readouterr()
+        assert main(["fit", "--config", str(tmp_path / "bad.yaml"), "--out", str(tmp_path / "d"), "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("error: ") and err.count("\n") == 1 and match in err, err
