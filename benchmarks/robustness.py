@@ -394,23 +394,26 @@ def spot_vector(room: Room, test) -> torch.Tensor:
     return y
 
 
-def score(room: Room, test, variation=None, seed: int = 0) -> dict:
+def score(room: Room, test, variation=None, seed: int = 0, draws: int = 1) -> dict:
     """Six-way and 3-class posture accuracy (%) and mean error (cm) of ``test`` (or of a list of
     tests pooled: one row over several worlds, each its own photographs); ``correct`` and
-    ``error_m`` hold each person's outcome (:func:`paired`)."""
+    ``error_m`` hold each person's outcome (:func:`paired`), averaged over ``draws`` independent
+    sensor noise and drift draws (seeds ``seed + 1000 k``): what a row says about the people, less
+    the luck of one noise draw."""
     from nlos_spotlight.evaluate.seen import score_rooms
 
     if isinstance(test, list):
-        parts = [(t.num_samples, score(room, t, variation, seed + i)) for i, t in enumerate(test)]
+        parts = [(t.num_samples, score(room, t, variation, seed + i, draws)) for i, t in enumerate(test)]
         n = sum(k for k, _ in parts)
         out = {key: sum(k * r[key] for k, r in parts) / n for key in SCORES}
         return {**out, **{k: np.concatenate([r[k] for _, r in parts]) for k in ("correct", "error_m")}}
     y = spot_vector(room, test)
-    res = score_rooms(room.models.net, room.models.config.net, room.sensor, [test], [(y, "spot")], True, seed,
-                      variation=variation)
-    pp = res["per_person"]
-    return {**{k: res[k] for k in SCORES}, "correct": pp["true_posture"] == pp["pred_posture"],
-            "error_m": np.linalg.norm(pp["pred_xy"] - pp["true_xy"], axis=1)}
+    runs = [score_rooms(room.models.net, room.models.config.net, room.sensor, [test], [(y, "spot")], True,
+                        seed + 1000 * k, variation=variation) for k in range(draws)]
+    pp = [r["per_person"] for r in runs]
+    return {**{k: float(np.mean([r[k] for r in runs])) for k in SCORES},
+            "correct": np.mean([p["true_posture"] == p["pred_posture"] for p in pp], 0),
+            "error_m": np.mean([np.linalg.norm(p["pred_xy"] - p["true_xy"], axis=1) for p in pp], 0)}
 
 
 SCORES = ("posture_accuracy", "posture3_accuracy", "error_cm")
@@ -697,6 +700,8 @@ def main(argv=None) -> int:
     ap.add_argument("--no-render", action="store_true", help="capture effects only (no people rendered again)")
     ap.add_argument("--cache", default="out/robustness", help="the people rendered again, per room")
     ap.add_argument("--seed", type=int, default=0, help="sensor noise and drift draws")
+    ap.add_argument("--noise-draws", type=int, default=1, help="sensor noise and drift draws per person and row, "
+                                                                "averaged (the paired standard errors shrink)")
     ap.add_argument("--flag-multiples", default="1,2,3,4,6", help="tripod multiples of the drift-flag check")
     ap.add_argument("--flag-captures", type=int, default=400, help="captures per multiple in the drift-flag check")
     ap.add_argument("--out", required=True, help="CSV to write (a JSON of the run beside it)")
@@ -749,7 +754,7 @@ def main(argv=None) -> int:
         worlds = world_conditions(room, Path(args.cache), world_mags, args.world_draws) if world_mags and not args.no_render else []
         outcomes = {}
         for cond, mag, test, var in [*conditions(room, people, mags), *worlds]:
-            r = score(room, test, var, args.seed)
+            r = score(room, test, var, args.seed, args.noise_draws)
             outcomes[(cond, mag)] = r
             rows.append({"room": name, "reading": reading, "condition": cond, "magnitude": mag,
                          **{k: r[k] for k in SCORES}, "people": len(r["correct"])})
@@ -778,7 +783,7 @@ def main(argv=None) -> int:
     from nlos_spotlight.data.generate import versions
 
     out.with_suffix(".json").write_text(json.dumps({"argv": sys.argv[1:], "people": args.people, "magnitudes": mags,
-                                                    "pixel_samples": args.pixel_samples, "seed": args.seed,
+                                                    "pixel_samples": args.pixel_samples, "seed": args.seed, "noise_draws": args.noise_draws,
                                                     "rooms": notes, "versions": versions()}, indent=1))
     print(f"wrote {out}")
     return 0
