@@ -29,6 +29,8 @@ draws for every condition:
   footprint, other offsets) and ``camera-gain-corrected`` (their 16 x 16 light divided by the
   per-pixel gain over the fit's light, cross-fitted on the other half of the people,
   :func:`footprint_gain`): is the camera-photograph gap the fit's fixed footprint pattern?
+  ``camera-f32`` (``--fine``): the camera photographs with the person's light at 32 x 32 (is
+  16 x 16 converged?); ``--noise-draws`` averages every row over sensor-noise draws;
 * ``mitsuba`` (``--mitsuba SPP``): with-minus-without photographs by Mitsuba 3's particle tracer
   at 6 bounces (:func:`mitsuba_people`);
 * ``capture-all``: every capture effect at 1x ``tripod`` together, on the fit's person light;
@@ -70,7 +72,7 @@ from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.render.variation import WORLD_EFFECTS
 
 COLUMNS = ("room", "reading", "condition", "magnitude", "posture_accuracy", "posture3_accuracy", "error_cm", "people")
-CAMERA_CONDITIONS = ("footprint-offsets", "camera-fit-footprint", "camera-gain-corrected", "relay-offsets", "relay-averaged", "shadow-averaged", "pixel-integrated", "pixel-integrated-2x2", "shadow", "camera", "clothing-dark", "clothing-light",
+CAMERA_CONDITIONS = ("footprint-offsets", "camera-f32", "camera-fit-footprint", "camera-gain-corrected", "relay-offsets", "relay-averaged", "shadow-averaged", "pixel-integrated", "pixel-integrated-2x2", "shadow", "camera", "clothing-dark", "clothing-light",
                      "all", "capture-all", "camera-mitsuba-people", "mitsuba")
 CLOTHING = {"clothing-dark": 0.05, "clothing-light": 0.9}
 SHADOW_SAMPLES = 1024
@@ -302,6 +304,33 @@ def _camera_draw(room: Room, cache: Path, draw: int) -> dict[str, np.ndarray]:
     return out
 
 
+FINE_FOOTPRINT = 32
+"""Footprint of the ``camera-f32`` photographs' person light (the convergence check of
+``CAMERA_FOOTPRINT``: brute force converges about as 1/n, so 32 x 32 is about twice as close)."""
+
+
+def fine_light(room: Room, cache: Path) -> dict[str, np.ndarray]:
+    """The held-out people's scattered light (``nlos``, ``nlos_ambient``) at :data:`FINE_FOOTPRINT`
+    (cached): ``f32_nlos``, ``f32_nlos_ambient``."""
+    from nlos_spotlight.data.store import atomic_npz
+    from nlos_spotlight.render.settings import RenderSettings
+
+    path = cache / room.name / f"fine-{len(room.indices)}-f{FINE_FOOTPRINT}.npz"
+    if path.exists():
+        with np.load(path, allow_pickle=False) as z:
+            if list(z["indices"]) == room.indices:
+                return {k: z[k] for k in z.files if k != "indices"}
+    builder, dcfg = room_builder(room.path, fit_config(room.path))
+    rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=FINE_FOOTPRINT,
+                        spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
+                        footprint_seed=CAMERA_SEED + 50, device="cpu")
+    got = builder.rerender(room.indices, rs, room.aim, ("nlos", "nlos_ambient"))
+    out = {f"f32_{k}": v for k, v in got.items()}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_npz(path, indices=np.asarray(room.indices), **out)
+    return out
+
+
 MITSUBA_DEPTH = 6
 """Bounces of the Mitsuba photographs (ours: the spot's light reaches the body after one bounce and
 the camera after one more, plus the body's shadow on one relay bounce)."""
@@ -488,6 +517,9 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float]):
     yield "shadow", 1.0, with_person_light(t, room.spot, lit.double().numpy() + c["cam_nlos_shadow"],
                                            amb.double().numpy()), ideal
     yield "camera", 1.0, cam(albedo), ideal
+    if "f32_nlos" in c:  # the camera photographs with the person's light twice as converged
+        yield "camera-f32", 1.0, with_person_light(t, room.spot, c["f32_nlos"] + c["cam_nlos_shadow"],
+                                                   c["f32_nlos_ambient"]), ideal
     if "offset_nlos" in c:  # is the gap the fit's footprint pattern? the same photographs at the fit's footprint
         yield "camera-fit-footprint", 1.0, with_person_light(t, room.spot, c["offset_nlos"] + c["cam_nlos_shadow"],
                                                              c["cam_nlos_ambient"]), ideal
@@ -695,6 +727,8 @@ def main(argv=None) -> int:
                                                             "(WORLD_EFFECTS; empty: none; each renders the people again)")
     ap.add_argument("--camera-draws", type=int, default=1, help="independent draws averaged in each camera "
                                                                  "photograph (its Monte Carlo noise over sqrt(draws))")
+    ap.add_argument("--fine", action="store_true", help="also the camera photographs with the person's light at "
+                                                         "32 x 32 (camera-f32: is 16 x 16 converged?)")
     ap.add_argument("--world-draws", type=int, default=1, help="independent worlds per effect and magnitude, "
                                                                 "their people pooled in one row (default 1)")
     ap.add_argument("--no-render", action="store_true", help="capture effects only (no people rendered again)")
@@ -720,7 +754,8 @@ def main(argv=None) -> int:
         room = load_room(name, reading, Path(path), args.people)
         people = None
         if not args.no_render:
-            people = {**camera_people(room, Path(args.cache), args.pixel_samples),
+            fine = fine_light(room, Path(args.cache)) if args.fine else {}
+            people = {**fine, **camera_people(room, Path(args.cache), args.pixel_samples),
                       **camera_photographs(room, Path(args.cache), args.camera_draws), **fit_reproduction(room, Path(args.cache))}
             if args.mitsuba > 0:
                 people.update(mitsuba_people(room, Path(args.cache), args.mitsuba, args.mitsuba_people))
@@ -747,6 +782,10 @@ def main(argv=None) -> int:
             if "offset_nlos" in people:
                 notes[f"{name}:{reading}"]["footprint_pattern"] = footprint_pattern(stored, people["cam_nlos"],
                                                                                      people["offset_nlos"])
+            if "f32_nlos" in people:  # 16 x 16 against 32 x 32: how converged the camera photographs are
+                notes[f"{name}:{reading}"]["camera_vs_f32_mean_light"] = rel(people["cam_nlos"].mean(0),
+                                                                             people["f32_nlos"].mean(0))
+                notes[f"{name}:{reading}"]["fit_vs_f32_mean_light"] = rel(stored.mean(0), people["f32_nlos"].mean(0))
         notes.setdefault(f"{name}:{reading}", {})["person_light_removed"] = person_light_removed(room)
         notes[f"{name}:{reading}"]["sensor_noise_median"] = float(np.median(sensor_noise(room, args.seed)))
         flags += flag_rates(room, [float(m) for m in args.flag_multiples.split(",")], args.flag_captures, args.seed)
