@@ -78,6 +78,7 @@ WORLD_COMPONENTS = ("nlos", "nlos_ambient", "nlos_shadow")
 
 
 def components(cfg: FitConfig) -> tuple[str, ...]:
+    """What each block of this fit stores."""
     return ("nlos_shadow",) if cfg.world_variation == "ideal" else WORLD_COMPONENTS
 
 
@@ -101,7 +102,7 @@ def _in_worlds(builder, settings, aim: np.ndarray, indices: list[int], offsets: 
         for c in WORLD_COMPONENTS:
             for n, i in enumerate(pos):
                 out[c][i] = got[c][n]
-    return {c: np.stack(v) for c, v in out.items()}
+    return {c: np.stack(imgs) for c, imgs in out.items()}
 
 
 WORLD_STREAM = 7919
@@ -201,4 +202,4 @@ def load_block_light(out: Path, cfg: FitConfig) -> dict[str, np.ndarray]:
     return {c: np.concatenate(v) for c, v in parts.items()}
 
 
-__all__ = ["BLOCK", "load_shadows", "render_shadows", "shadow_dir"]
+__all__ = ["BLOCK", "WORLD_COMPONENTS", "load_block_light", "load_shadows", "render_shadows", "shadow_dir"]
