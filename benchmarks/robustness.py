@@ -68,6 +68,7 @@ import torch
 
 from nlos_spotlight.errors import NlosError
 from nlos_spotlight.fit.run import room_builder
+from nlos_spotlight.fit.shadow import PHI
 from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.render.variation import WORLD_EFFECTS
 
@@ -138,6 +139,15 @@ def fit_config(model: Path):
     return FitConfig.from_record(json.loads((Path(model) / "fit.json").read_text())["settings"])
 
 
+def cached(path: Path, room: Room) -> dict[str, np.ndarray] | None:
+    """The arrays of a cached render of ``room``'s held-out people (``indices`` among them), or None
+    where there is none or it holds other people."""
+    if not path.exists():
+        return None
+    with np.load(path, allow_pickle=False) as z:
+        return {k: z[k] for k in z.files} if list(z["indices"]) == room.indices else None
+
+
 def camera_people(room: Room, cache: Path, pixel_samples: int) -> dict[str, np.ndarray]:
     """The held-out people rendered again (cached): the fit's settings (a reproduction check),
     ``pixel_samples``^2 sub-samples a pixel, and the shadow term."""
@@ -145,10 +155,8 @@ def camera_people(room: Room, cache: Path, pixel_samples: int) -> dict[str, np.n
     from nlos_spotlight.render.settings import RenderSettings
 
     path = cache / room.name / f"people-{len(room.indices)}-p{pixel_samples}.npz"
-    if path.exists():
-        with np.load(path, allow_pickle=False) as z:
-            if list(z["indices"]) == room.indices:
-                return {k: z[k] for k in z.files}
+    if (got := cached(path, room)) is not None:
+        return got
     builder, dcfg = room_builder(room.path, fit_config(room.path))
     base = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
                           pixel_footprint=dcfg.pixel_footprint, spot_samples=dcfg.spot_samples,
@@ -173,10 +181,8 @@ def fit_reproduction(room: Room, cache: Path) -> dict[str, np.ndarray]:
 
     cfg = fit_config(room.path)
     path = cache / room.name / f"fit-{len(room.indices)}-f{cfg.pixel_footprint}-s{cfg.shadow_samples}.npz"
-    if path.exists():
-        with np.load(path, allow_pickle=False) as z:
-            if list(z["indices"]) == room.indices:
-                return {k: z[k] for k in z.files if k != "indices"}
+    if (got := cached(path, room)) is not None:
+        return {k: v for k, v in got.items() if k != "indices"}
     builder, dcfg = room_builder(room.path, cfg)
     base = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
                           pixel_footprint=dcfg.pixel_footprint, spot_samples=dcfg.spot_samples,
@@ -215,10 +221,8 @@ def world_photographs(room: Room, cache: Path, effect: str, magnitude: float, dr
 
     name = "scan" if magnitude == 0 else f"{effect}-{magnitude:g}" + (f"-d{draw}" if draw else "")
     path = cache / room.name / f"world-{name}-{len(room.indices)}-f{WORLD_FOOTPRINT}.npz"
-    if path.exists():
-        with np.load(path, allow_pickle=False) as z:
-            if list(z["indices"]) == room.indices:
-                return {k: z[k] for k in z.files}
+    if (got := cached(path, room)) is not None:
+        return got
     cfg = fit_config(room.path)
     builder, dcfg = room_builder(room.path, cfg)
     v = preset("tripod").only(effect).scaled(magnitude)
@@ -285,15 +289,13 @@ def _camera_draw(room: Room, cache: Path, draw: int) -> dict[str, np.ndarray]:
 
     tail = f"-d{draw}" if draw else ""
     path = cache / room.name / f"camera-{len(room.indices)}-f{CAMERA_FOOTPRINT}-s{CAMERA_SHADOW_SAMPLES}{tail}.npz"
-    if path.exists():
-        with np.load(path, allow_pickle=False) as z:
-            if list(z["indices"]) == room.indices:
-                return {k: z[k] for k in z.files}
+    if (got := cached(path, room)) is not None:
+        return got
     builder, dcfg = room_builder(room.path, fit_config(room.path))
     rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=CAMERA_FOOTPRINT,
                         spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
                         shadow_samples=CAMERA_SHADOW_SAMPLES, footprint_seed=CAMERA_SEED + 100 * draw,
-                        relay_offset=(0.5 + draw * 0.6180339887498949) % 1.0, device="cpu")
+                        relay_offset=(0.5 + draw * PHI) % 1.0, device="cpu")
     t0 = time.perf_counter()
     got = builder.rerender(room.indices, rs, room.aim, ("nlos", "nlos_ambient", "nlos_shadow"))
     out = {"indices": np.asarray(room.indices), **{f"cam_{k}": v for k, v in got.items()},
@@ -316,10 +318,8 @@ def fine_light(room: Room, cache: Path) -> dict[str, np.ndarray]:
     from nlos_spotlight.render.settings import RenderSettings
 
     path = cache / room.name / f"fine-{len(room.indices)}-f{FINE_FOOTPRINT}.npz"
-    if path.exists():
-        with np.load(path, allow_pickle=False) as z:
-            if list(z["indices"]) == room.indices:
-                return {k: z[k] for k in z.files if k != "indices"}
+    if (got := cached(path, room)) is not None:
+        return {k: v for k, v in got.items() if k != "indices"}
     builder, dcfg = room_builder(room.path, fit_config(room.path))
     rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=FINE_FOOTPRINT,
                         spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,

@@ -46,7 +46,7 @@ from ..lighting.learned import require_learned
 from ..scene.scan import load_scan_z_up
 from ..render.camera import camera_frame, pixel_rays
 from ..render.rays import RayEngine
-from ..scene.format import Camera, TriMesh
+from ..scene.format import Camera, Scene, TriMesh
 from ..scene.orient import fibonacci_sphere
 from ..train.checkpoint import TrainedModels
 from ..data.tensors import graph_inputs
@@ -95,6 +95,9 @@ class SpotlightSetup:
     """(4, 4) from the mesh file's coordinates to ``mesh``'s (identity for scenes)."""
     engine: RayEngine = field(repr=False, default=None)
     """Embree scene over ``mesh``."""
+    scene: Scene | None = field(repr=False, default=None)
+    """The loaded ``Scene`` of a scene directory (its hidden region and walls: what an IEN trained
+    with them reads, :func:`ien_logits`); None for a bare mesh."""
 
     def __post_init__(self):
         if self.engine is None:
@@ -200,6 +203,7 @@ def load_setup(path: str | Path, camera_position=None, camera_look_at=None, proj
     path = Path(path)
     if (camera_position is None) != (camera_look_at is None):
         raise NlosError("--camera-position and --camera-look-at go together (give both or neither)")
+    scene = None
     if path.is_dir():
         scene = load_scene(path)
         mesh, camera, cam_src = scene.static_mesh()[0], scene.camera, "scene"
@@ -225,7 +229,7 @@ def load_setup(path: str | Path, camera_position=None, camera_look_at=None, proj
         projector, proj_src = np.asarray(projector_position, dtype=np.float64), "flags"
     elif projector is None:
         projector = _projector_beside(camera)
-    return SpotlightSetup(path, kind, mesh, camera, cam_src, projector, proj_src, file_to_world, engine)
+    return SpotlightSetup(path, kind, mesh, camera, cam_src, projector, proj_src, file_to_world, engine, scene)
 
 
 def visible_mesh(setup: SpotlightSetup, target_vertices: int) -> TriMesh:
@@ -263,20 +267,17 @@ def ien_logits(models: TrainedModels, los: TriMesh, camera: Camera, scene=None) 
     score of each face aimed at its centroid (as a room stores its candidates). Those need
     ``scene`` with a hidden region; a bare mesh gives one line saying so. The one path from a mesh
     to the IEN's choice (``nlos spotlight``, ``nlos fit --policy ien``)."""
-    from ..data.tensors import face_log_prior
+    from ..data.tensors import face_log_prior, region_frame
 
     feats = list(models.config.ien_features)
-    weight = float(getattr(models.ien.cfg, "prior_weight", 0.0))
+    weight = float(models.ien.cfg.prior_weight)
     needs = [f for f in feats if f in ("region", "adaptive")] + (["a face prior"] if weight else [])
     if needs and (scene is None or scene.hidden_region is None):
         raise NlosError(f"{models.path}: this IEN reads {', '.join(needs)} of the hidden region; give a scene "
                         "with a hidden_region (an nlos-scene/1 directory), not a bare mesh")
     pose = camera_to_world(camera)
-    region = scores = None
-    if "region" in feats:
-        hr = scene.hidden_region
-        fwd = -pose[:2, 2] / np.linalg.norm(pose[:2, 2])
-        region = ((np.asarray(hr.min, float)[:2] + np.asarray(hr.max, float)[:2]) / 2, fwd, float(hr.floor_z))
+    region = region_frame(scene.hidden_region, pose) if "region" in feats else None
+    scores = None
     if "adaptive" in feats or weight:
         from ..lighting.adaptive import adaptive_scores
 
@@ -463,12 +464,7 @@ def spotlight(models: TrainedModels, setup: SpotlightSetup, target_vertices: int
     if target_vertices < 8:
         raise NlosError(f"--target-vertices: expected at least 8, got {target_vertices}")
     los = visible_mesh(setup, target_vertices)
-    scene = None
-    if setup.kind == "scene":  # a room with a hidden region: what an IEN trained with it reads
-        from ..scene.io import load_scene
-
-        scene = load_scene(setup.source)
-    logits = ien_logits(models, los, setup.camera, scene)
+    logits = ien_logits(models, los, setup.camera, setup.scene)
     reachable, landing = projector_reach(setup, los)
     if not reachable.any():
         raise NlosError(f"the projector at {np.round(setup.projector, 3).tolist()} reaches none of the "

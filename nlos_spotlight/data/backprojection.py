@@ -164,7 +164,7 @@ def room_backprojector(scene_dir: str, grid: FloorGrid = FloorGrid()) -> tuple[B
     """A dataset room's backprojector (region frame of its targets) and its static arrays (aim
     points, LOS mesh, camera pose), cached per room."""
     from ..scene.io import load_scene
-    from .tensors import region_center
+    from .tensors import region_center, view_forward_xy
 
     d = Path(scene_dir)
     scene = load_scene(d)
@@ -172,8 +172,7 @@ def room_backprojector(scene_dir: str, grid: FloorGrid = FloorGrid()) -> tuple[B
 
     st = read_static(d)
     pose = st["camera_to_world"]
-    fwd = -pose[:2, 2] / np.linalg.norm(pose[:2, 2])
-    return backprojector(scene, region_center(d), fwd, grid), st
+    return backprojector(scene, region_center(d), view_forward_xy(pose), grid), st
 
 
 def candidate_spot_factor(scene_dir: str, face: int, grid: FloorGrid = FloorGrid()) -> np.ndarray:

@@ -24,7 +24,7 @@ import numpy as np
 import torch
 
 from ..errors import NlosError
-from .tensors import SceneTensors, region_points
+from .tensors import SceneTensors, region_frame, region_points
 
 GEOMETRY_CHANNELS = 10
 """Position (3), normal (3), albedo (3), lit fraction (1)."""
@@ -42,11 +42,9 @@ def _room_geometry(scene_dir: str) -> torch.Tensor:
     pose = read_static(d, "camera_to_world")["camera_to_world"]
     if scene.hidden_region is None:
         raise NlosError(f"{d}/scene.json: no hidden_region (the geometry's frame)")
-    floor_z = scene.hidden_region.floor_z
+    origin, fwd, floor_z = region_frame(scene.hidden_region, pose)
     g = render_gbuffer(scene)
     h, w = g.hit.shape
-    fwd = -pose[:2, 2] / np.linalg.norm(pose[:2, 2])
-    origin = (np.asarray(scene.hidden_region.min, float) + np.asarray(scene.hidden_region.max, float))[:2] / 2
     pos = region_points(g.position.reshape(-1, 3), origin, fwd, floor_z).reshape(h, w, 3)
     nrm = region_points(g.normal.reshape(-1, 3), np.zeros(2), fwd, 0.0).reshape(h, w, 3)  # directions: no shift
     room = np.concatenate([pos, nrm, g.albedo], -1) * g.hit[..., None]  # misses: all zero

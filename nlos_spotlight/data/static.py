@@ -47,12 +47,4 @@ def read_static(scene_dir, *keys: str, optional: tuple[str, ...] = ()) -> dict[s
         raise NlosError(f"{path}: unreadable ({type(exc).__name__})") from None
 
 
-def has_static(scene_dir, key: str) -> bool:
-    """``scene_dir``'s record exists, is readable and holds ``key`` (a build resumes past it)."""
-    try:
-        return key in read_static(scene_dir, key)
-    except NlosError:
-        return False
-
-
-__all__ = ["STATIC", "has_static", "read_static", "static_path"]
+__all__ = ["STATIC", "read_static", "static_path"]

@@ -187,6 +187,19 @@ def world_floor(rel_xy: np.ndarray, origin_xy: np.ndarray, fwd_xy: np.ndarray) -
     return np.asarray(origin_xy, float) + rel[:, :1] * fwd + rel[:, 1:] * left
 
 
+def view_forward_xy(camera_to_world: np.ndarray) -> np.ndarray:
+    """(2,) unit direction of the camera's view on the floor: the region frame's first axis."""
+    pose = np.asarray(camera_to_world)
+    return -pose[:2, 2] / np.linalg.norm(pose[:2, 2])
+
+
+def region_frame(hidden_region, camera_to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """(origin_xy, fwd_xy, floor_z) of a scene's ``HiddenRegion`` seen by the camera at
+    ``camera_to_world``: the frame :func:`region_points` and the IEN's 'region' feature use."""
+    origin = (np.asarray(hidden_region.min, float) + np.asarray(hidden_region.max, float))[:2] / 2
+    return origin, view_forward_xy(camera_to_world), float(hidden_region.floor_z)
+
+
 def region_center(scene_dir: Path) -> np.ndarray:
     """(2,) world floor center of a dataset scene's hidden region."""
     return _hidden_region(scene_dir)[0]
@@ -369,8 +382,7 @@ def load_scene_tensors(scene_dir: Path, features: list[str], samples: str = "all
     u, v = _factors(full, images, spots, num_t)
     zs = full + images
     pose = st["camera_to_world"]
-    fwd = -pose[:2, 2]
-    fwd = fwd / np.linalg.norm(fwd)
+    fwd = view_forward_xy(pose)
     cam = pose[:2, 3]
     origin = region_center(scene_dir)
     prior = adaptive_prior(str(scene_dir)) if "adaptive" in features else None

@@ -133,8 +133,7 @@ class FitConfig:
     def from_record(cls, settings: dict) -> "FitConfig":
         """The config a room model was fitted with (``fit.json``'s settings): a setting its version
         did not have yet takes the value that version used (:data:`BEFORE`), not today's default."""
-        fields = {k: v for k, v in settings.items() if k in cls.__dataclass_fields__}
-        return cls(**{**BEFORE, **fields})
+        return cls(**{k: v for k, v in recorded(settings).items() if k in cls.__dataclass_fields__})
 
 
 MAX_WORKERS = 256
@@ -144,6 +143,12 @@ MAX_WORKERS = 256
 BEFORE = {"capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "shadow_samples": 0,
           "clothing": "dataset", "shadow_relay": "fixed", "world_variation": "ideal"}
 """What a room model fitted before each of these settings existed did (see their docstrings)."""
+
+
+def recorded(settings: dict) -> dict:
+    """A ``fit.json``'s settings with those its version did not have yet at the value that version
+    used (:data:`BEFORE`): a setting added since is no difference where it keeps that behaviour."""
+    return {**BEFORE, **settings} if isinstance(settings, dict) else settings
 
 
 PRESETS = {

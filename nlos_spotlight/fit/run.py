@@ -28,7 +28,7 @@ import time
 from pathlib import Path
 
 from ..errors import NlosError
-from .config import FitConfig
+from .config import FitConfig, recorded
 
 FORMAT = "nlos-room-model/1"
 RESUMABLE_CHANGES = ("workers",)
@@ -118,14 +118,6 @@ def render_people(dcfg, data: Path, workers: int, progress: bool) -> None:
     if bad:
         raise NlosError(f"{data}: a rendering process failed (exit {bad[0]}); rerun with --resume to continue")
     generate(dcfg, data, progress=False)  # every part is there: done.json and the manifest
-
-
-def recorded(settings: dict) -> dict:
-    """A ``fit.json``'s settings with those its version did not have yet at the value that version
-    used (``config.BEFORE``): a setting added since is no difference where it keeps that behaviour."""
-    from .config import BEFORE
-
-    return {**BEFORE, **settings} if isinstance(settings, dict) else settings
 
 
 def check_out(out: Path, record: dict, resume: bool) -> None:

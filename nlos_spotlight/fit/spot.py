@@ -85,14 +85,16 @@ def spot_policies(out: Path, cfg, split, chosen: int) -> dict:
     up against the physics search, before any training."""
     import dataclasses
 
+    from ..lighting.oracle import by_snr
     from ..lighting.snr import candidate_snr
 
     snr = np.asarray(candidate_snr(scene_dir(out)), np.float64)
     landed = split.pool.landed.cpu().numpy().astype(bool)
     best = float(snr[landed].max()) if landed.any() else float("nan")
     rows = {}
-    for name in REPORTED_POLICIES:
-        face = policy_face(dataclasses.replace(cfg, policy=name, checkpoint=""), split)
+    for name in REPORTED_POLICIES:  # the oracle's rule on the SNR in hand, not a second SNR pass
+        face = by_snr(snr, landed)[0] if name == "oracle" else policy_face(
+            dataclasses.replace(cfg, policy=name, checkpoint=""), split)
         rows[name] = {"face": face, "snr_over_best": float(snr[face] / best) if face >= 0 else 0.0}
     rows["chosen"] = {"face": int(chosen), "snr_over_best": float(snr[chosen] / best)}
     return {"best_snr": best, "policies": rows}

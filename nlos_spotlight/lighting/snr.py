@@ -76,11 +76,10 @@ def scene_snr(scene_dir: str | Path, skip_every: int = 0, sensor: dict | None = 
     leaves out the samples k with k % n == n - 1, the people a training run
     holds out of its rooms (``data.tensors.holdout_mask``), so training never reads them.
     """
+    from ..data.static import read_static
     from ..scene import load_scene
 
     scene_dir = Path(scene_dir)
-    from ..data.static import read_static
-
     st = read_static(scene_dir)
     direct, ambient = torch.as_tensor(st["direct"]).double(), torch.as_tensor(st["ambient"]).double()
     landed = np.asarray(st["spot_landed"], bool)
