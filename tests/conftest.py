@@ -3,6 +3,9 @@ one torch thread for tiny networks."""
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 import pytest
 import torch
@@ -41,7 +44,7 @@ MICRO = dict(name="micro", seed=3, train_scenes=2, val_scenes=0, test_scenes=1, 
 """The micro dataset (seconds to generate) of the generation and policy tests."""
 
 
-def plate_scene(res: int = 3, fov: float = 2.0, plate_albedo=0.0, hidden=1.0, kd=0.8) -> Scene:
+def _plate_scene(res: int = 3, fov: float = 2.0, plate_albedo=0.0, hidden=1.0, kd=0.8) -> Scene:
     """A diffuse wall (y = 0, facing +y), a camera looking at (0, 0, 1) from the side, and a
     1 m x 1 m 'person' plate parallel to the wall at distance 1, centered in front of (0, 0, 1)."""
     wall = quad([-3, 0, -1], [6, 0, 0], [0, 0, 4], 6, 4)
@@ -197,7 +200,7 @@ def one_thread():
     torch.set_num_threads(n)
 
 
-def glossy_corner_pair(person_samples: int, dtype: str, **variant):
+def _glossy_corner_pair(person_samples: int, dtype: str, **variant):
     """A 12x12 glossy furniture corner with ambient light and three candidate spots: its renderer
     with the torch pair kernels, one with the settings overrides ``variant``, and a body of about
     ``person_samples`` samples. The paint is glossy so that the GGX branches of the kernels run too."""
@@ -216,3 +219,36 @@ def glossy_corner_pair(person_samples: int, dtype: str, **variant):
     base = Renderer(sc, settings, aim_points=aims)
     other = Renderer(sc, dataclasses.replace(settings, **variant), aim_points=aims)
     return base, other, Person.from_mesh(sc.human.mesh, sc.human.albedo, person_samples, "faces")
+
+
+@pytest.fixture(scope="session")
+def plate_scene():
+    """The factory :func:`_plate_scene` (a wall, a side camera and a plate 'person')."""
+    return _plate_scene
+
+
+@pytest.fixture(scope="session")
+def glossy_corner_pair():
+    """The factory :func:`_glossy_corner_pair` (a glossy corner's renderers and a body)."""
+    return _glossy_corner_pair
+
+
+SCANS_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "real-scans"
+SCANS = ("copyroom.ply", "icl_livingroom2.obj", "icl_office2.obj")
+"""The real scans of ``../shared/data/real-scans`` the tests read."""
+
+
+def _real_scan(name: str) -> Path:
+    path = SCANS_DIR / name
+    if not path.is_file():
+        msg = f"real scan {path} is missing (expected ../shared/data/real-scans beside the repo)"
+        if os.environ.get("CI") == "true":  # CI has ../shared: a missing scan is a failure there
+            pytest.fail(msg)
+        pytest.skip(msg)
+    return path
+
+
+@pytest.fixture(scope="session")
+def real_scan():
+    """name -> path of a real scan of :data:`SCANS_DIR` (skips the test where it is missing, fails in CI)."""
+    return _real_scan

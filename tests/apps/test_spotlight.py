@@ -4,7 +4,6 @@ default camera, the three real scans end to end, and one-line CLI errors."""
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +25,6 @@ from nlos_spotlight.train.config import TrainConfig  # noqa: E402
 from nlos_spotlight.train.loop import Trainer  # noqa: E402
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "nlos_spotlight" / "assets" / "example_scene"
-SCANS_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "real-scans"
 
 
 pytestmark = pytest.mark.usefixtures("one_thread")  # tiny networks: one torch thread (conftest.py)
@@ -173,19 +171,10 @@ def test_default_camera_stands_in_the_room_and_looks_down_its_length():
 
 # ---------------------------------------------------------------- real scans, CLI
 
-def _scan(name: str) -> Path:
-    path = SCANS_DIR / name
-    if not path.is_file():
-        if os.environ.get("CI") == "true":
-            pytest.fail(f"real scan {path} is missing")
-        pytest.skip(f"real scan {path} is missing (expected ../shared/data/real-scans beside the repo)")
-    return path
-
-
 @pytest.mark.parametrize("name", ["copyroom.ply", "icl_livingroom2.obj", "icl_office2.obj"])
-def test_real_scans_end_to_end(ckpt, tmp_path, capsys, name):
+def test_real_scans_end_to_end(ckpt, tmp_path, capsys, name, real_scan):
     out = tmp_path / "spot.json"
-    argv = ["spotlight", str(_scan(name)), "--checkpoint", str(ckpt), "--json", str(out), "--target-vertices", "400",
+    argv = ["spotlight", str(real_scan(name)), "--checkpoint", str(ckpt), "--json", str(out), "--target-vertices", "400",
             "--top-k", "4"]
     if name == "copyroom.ply":
         argv += ["--png", str(tmp_path / "spot.png")]
@@ -196,7 +185,7 @@ def test_real_scans_end_to_end(ckpt, tmp_path, capsys, name):
     v = np.array(r["los_mesh"]["vertices"])
     assert abs(len(v) - 400) <= 40  # decimated
     # the default camera stands inside the room, clear of furniture, at eye height, sees the LOS mesh
-    setup = load_setup(_scan(name))
+    setup = load_setup(real_scan(name))
     cam = np.array(r["camera"]["position"])
     assert r["camera"]["source"] == "default" and np.allclose(cam, setup.camera.position)
     w = setup.mesh.vertices
@@ -222,9 +211,9 @@ def test_real_scans_end_to_end(ckpt, tmp_path, capsys, name):
         assert (tmp_path / "spot.png").stat().st_size > 20_000
 
 
-def test_flags_override_the_camera_and_projector(ckpt, tmp_path):
+def test_flags_override_the_camera_and_projector(ckpt, tmp_path, real_scan):
     out = tmp_path / "spot.json"
-    argv = ["spotlight", str(_scan("icl_office2.obj")), "--checkpoint", str(ckpt), "--json", str(out),
+    argv = ["spotlight", str(real_scan("icl_office2.obj")), "--checkpoint", str(ckpt), "--json", str(out),
             "--target-vertices", "300", "--camera-position", "-2.5,-0.6,0.0", "--camera-look-at", "1.7,-0.6,-0.5",
             "--projector-position", "-2.5,-0.9,-0.2"]  # values starting with '-': glued to their flags
     assert main(argv) == 0

@@ -15,7 +15,6 @@ from nlos_spotlight.render.person import Person
 from nlos_spotlight.render.spot import spot_profile
 from nlos_spotlight.render.transport import Renderer, RenderSettings
 from nlos_spotlight.scene.builders import quad
-from conftest import plate_scene
 
 
 def ff_parallel(a, b, c):
@@ -83,7 +82,7 @@ def test_form_factor_reciprocity():
     assert fba > ff_parallel(1, 1, 0.8) * 1.05
 
 
-def test_point_to_plate_form_factor_through_renderer():
+def test_point_to_plate_form_factor_through_renderer(plate_scene):
     """nlos_ambient at the wall point facing a dark plate: -kd * L_h * F(point -> plate)."""
     sc = plate_scene()
     r = Renderer(sc, RenderSettings(pixel_samples=1, transport_pixel_samples=1, person_samples=4096,
@@ -95,7 +94,7 @@ def test_point_to_plate_form_factor_through_renderer():
     assert np.allclose(center, expected, rtol=2e-3), (center, expected)
 
 
-def test_spot_irradiance_on_plane_matches_formula():
+def test_spot_irradiance_on_plane_matches_formula(plate_scene):
     sc = plate_scene(res=16, fov=60.0)
     aim = np.array([0.3, 0.0, 1.2])
     r = Renderer(sc, RenderSettings(pixel_samples=1, dtype="float64"), aim_points=aim[None])
@@ -116,7 +115,7 @@ def test_spot_irradiance_on_plane_matches_formula():
     assert np.allclose(img[..., 0], expected, rtol=1e-5, atol=1e-12)
 
 
-def test_spot_quadrature_carries_the_beam_flux():
+def test_spot_quadrature_carries_the_beam_flux(plate_scene):
     sc = plate_scene()
     p = sc.projector
     sc.projector.position = np.array([0.0, 1.0, 1.0])  # face the wall head-on so every ray lands

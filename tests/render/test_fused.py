@@ -7,10 +7,9 @@ import warnings
 import pytest
 import torch
 
-from conftest import glossy_corner_pair
 
 @pytest.fixture(scope="module")
-def pair():
+def pair(glossy_corner_pair):
     return glossy_corner_pair(64, "float32", fuse=True)
 
 

@@ -6,10 +6,9 @@ import numpy as np
 
 from nlos_spotlight.render.camera import pixel_rays, project
 from nlos_spotlight.render.gbuffer import render_gbuffer
-from conftest import plate_scene
 
 
-def test_gbuffer_is_the_ray_plane_intersection():
+def test_gbuffer_is_the_ray_plane_intersection(plate_scene):
     """Wall y = 0 (x in [-3, 3], z in [-1, 3]), albedo 0.8, seen from y = 1.2 with a wide lens:
     hits where the ray meets the finite wall, at o + t d with t = -o_y / d_y, normal +y (toward
     the camera), and misses beside it; every hit projects back to its pixel center."""
@@ -32,7 +31,7 @@ def test_gbuffer_is_the_ray_plane_intersection():
     np.testing.assert_allclose(project(sc.camera, g.position[g.hit]), np.stack([rows, cols], 1) + 0.5, atol=1e-6)
 
 
-def test_gbuffer_normals_face_the_camera_from_either_side():
+def test_gbuffer_normals_face_the_camera_from_either_side(plate_scene):
     """The same wall seen from behind (y < 0): the normal turns to -y (materials are two-sided)."""
     sc = plate_scene(res=8, fov=30.0)
     sc.human = None

@@ -8,13 +8,12 @@ import numpy as np
 import pytest
 import torch
 
-from conftest import glossy_corner_pair
 from nlos_spotlight.render import pair_loops
 from nlos_spotlight.render.person import Person
 from nlos_spotlight.render.rays import pair_rays
 
 @pytest.fixture(scope="module")
-def pair():
+def pair(glossy_corner_pair):
     return glossy_corner_pair(300, "float64", pair_loops=True)
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from functools import lru_cache
 from pathlib import Path
 
@@ -17,28 +16,17 @@ from nlos_spotlight.scene.decimate import decimate, decimate_ratio
 from nlos_spotlight.scene.format import TriMesh
 from nlos_spotlight.scene.meshio import load_mesh
 
-SCANS_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "real-scans"
-SCANS = ("copyroom.ply", "icl_livingroom2.obj", "icl_office2.obj")
-
-
-def scan_path(name: str) -> Path:
-    path = SCANS_DIR / name
-    if not path.is_file():
-        msg = f"real scan {path} is missing (expected ../shared/data/real-scans beside the repo)"
-        if os.environ.get("CI") == "true":
-            pytest.fail(msg)
-        pytest.skip(msg)
-    return path
+SCANS = ("copyroom.ply", "icl_livingroom2.obj", "icl_office2.obj")  # in ../shared/data/real-scans
 
 
 @lru_cache(maxsize=None)
-def cleaned(name: str) -> TriMesh:
-    return clean_mesh(load_mesh(scan_path(name)))
+def cleaned(path: Path) -> TriMesh:
+    return clean_mesh(load_mesh(path))
 
 
 @lru_cache(maxsize=None)
-def decimated(name: str, target: int) -> TriMesh:
-    return decimate(cleaned(name), target)
+def decimated(path: Path, target: int) -> TriMesh:
+    return decimate(cleaned(path), target)
 
 
 def _tm(mesh: TriMesh) -> trimesh.Trimesh:
@@ -61,8 +49,8 @@ def _area_mean(colors: np.ndarray, mesh: TriMesh) -> np.ndarray:
 
 @pytest.mark.parametrize("target", [500, 1000])
 @pytest.mark.parametrize("name", SCANS)
-def test_vertex_count_on_target(name, target):
-    src, out = cleaned(name), decimated(name, target)
+def test_vertex_count_on_target(name, target, real_scan):
+    src, out = cleaned(real_scan(name)), decimated(real_scan(name), target)
     assert abs(len(out.vertices) - target) <= 0.1 * target
     assert out.faces.min() >= 0 and out.faces.max() < len(out.vertices)
     assert len(np.unique(out.faces)) == len(out.vertices)  # every vertex used
@@ -72,18 +60,18 @@ def test_vertex_count_on_target(name, target):
 
 
 @pytest.mark.parametrize("name", SCANS)
-def test_fidelity_at_1000_vertices(name):
-    src, out = cleaned(name), decimated(name, 1000)
+def test_fidelity_at_1000_vertices(name, real_scan):
+    src, out = cleaned(real_scan(name)), decimated(real_scan(name), 1000)
     d = surface_distance(src, out) / bbox_diagonal(src.vertices)
     assert d.mean() < 0.02  # measured: 0.2% (ICL) to 0.7% (copyroom) of the diagonal
     assert np.quantile(d, 0.9) < 0.05
 
 
-def test_copyroom_colors_survive():
-    src = cleaned("copyroom.ply")
+def test_copyroom_colors_survive(real_scan):
+    src = cleaned(real_scan("copyroom.ply"))
     assert src.face_colors is not None
     for target in (500, 1000):
-        out = decimated("copyroom.ply", target)
+        out = decimated(real_scan("copyroom.ply"), target)
         assert out.face_colors.shape == (len(out.faces), 3) and out.vertex_colors is None
         assert np.abs(_area_mean(out.face_colors, out) - _area_mean(src.face_colors, src)).max() < 0.05
         # colors are the scan's own: every output color exists in the input
@@ -102,8 +90,8 @@ def test_vertex_colors_follow_position():
     assert np.abs(np.linalg.norm(out.vertices, axis=1) - 1).max() < 0.05
 
 
-def test_ratio_semantics():
-    src = cleaned("icl_office2.obj")
+def test_ratio_semantics(real_scan):
+    src = cleaned(real_scan("icl_office2.obj"))
     out = decimate_ratio(src, 0.1)
     assert abs(len(out.vertices) - 0.1 * len(src.vertices)) <= 0.1 * 0.1 * len(src.vertices)
     same = decimate_ratio(src, 1.0)

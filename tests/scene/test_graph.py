@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from functools import lru_cache
 from pathlib import Path
 
@@ -17,23 +16,12 @@ from nlos_spotlight.scene.format import TriMesh
 from nlos_spotlight.scene.graph import MeshGraph, mesh_to_graph, normalize_positions, to_pyg
 from nlos_spotlight.scene.scan import load_scan
 
-SCANS_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "real-scans"
-SCANS = ("copyroom.ply", "icl_livingroom2.obj", "icl_office2.obj")
-
-
-def scan_path(name: str) -> Path:
-    path = SCANS_DIR / name
-    if not path.is_file():
-        msg = f"real scan {path} is missing (expected ../shared/data/real-scans beside the repo)"
-        if os.environ.get("CI") == "true":
-            pytest.fail(msg)
-        pytest.skip(msg)
-    return path
+SCANS = ("copyroom.ply", "icl_livingroom2.obj", "icl_office2.obj")  # in ../shared/data/real-scans
 
 
 @lru_cache(maxsize=None)
-def scan(name: str, target: int) -> TriMesh:
-    return load_scan(scan_path(name), target_vertices=target)
+def scan(path: Path, target: int) -> TriMesh:
+    return load_scan(path, target_vertices=target)
 
 
 def sphere(subdivisions: int = 2) -> TriMesh:
@@ -74,8 +62,8 @@ def test_icosphere_euler_and_degrees():
 
 @pytest.mark.parametrize("target", [500, 1000])
 @pytest.mark.parametrize("name", SCANS)
-def test_real_scan_graph(name, target):
-    mesh = scan(name, target)
+def test_real_scan_graph(name, target, real_scan):
+    mesh = scan(real_scan(name), target)
     g = mesh_to_graph(mesh)
     assert abs(g.num_vertices - target) <= 0.1 * target and g.num_faces == len(mesh.faces)
     _check_edges(g, mesh)
@@ -99,8 +87,8 @@ def _frame(seed: int, scale: float = 1.0) -> np.ndarray:
 
 
 @pytest.mark.parametrize("scale", [1.0, 2.5])
-def test_frame_transform_matches_manual(scale):
-    mesh = scan("icl_office2.obj", 500)
+def test_frame_transform_matches_manual(scale, real_scan):
+    mesh = scan(real_scan("icl_office2.obj"), 500)
     frame = _frame(3, scale)
     g0, g = mesh_to_graph(mesh), mesh_to_graph(mesh, frame)
     rot = frame[:3, :3] / scale
@@ -126,8 +114,8 @@ def test_bad_frames():
             mesh_to_graph(mesh, bad)
 
 
-def test_normalize_positions_invariance():
-    pos = mesh_to_graph(scan("copyroom.ply", 500)).pos.double()
+def test_normalize_positions_invariance(real_scan):
+    pos = mesh_to_graph(scan(real_scan("copyroom.ply"), 500)).pos.double()
     norm, center, scale = normalize_positions(pos)
     assert torch.allclose(norm.mean(dim=0), torch.zeros(3, dtype=norm.dtype), atol=1e-9)
     assert abs(float(norm.pow(2).sum(dim=1).mean().sqrt()) - 1) < 1e-9
@@ -141,11 +129,11 @@ def test_normalize_positions_invariance():
         normalize_positions(torch.ones(5, 2))
 
 
-def test_to_pyg_runs_feastconv():
+def test_to_pyg_runs_feastconv(real_scan):
     from torch_geometric.nn import FeaStConv
     from torch_geometric.utils import contains_self_loops, is_undirected
 
-    g = mesh_to_graph(scan("copyroom.ply", 500))
+    g = mesh_to_graph(scan(real_scan("copyroom.ply"), 500))
     data = to_pyg(g)
     assert data.num_nodes == g.num_vertices and data.face.shape == (3, g.num_faces)
     assert is_undirected(data.edge_index) and not contains_self_loops(data.edge_index)

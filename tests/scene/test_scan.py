@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from functools import lru_cache
 from pathlib import Path
 
@@ -18,29 +17,19 @@ from nlos_spotlight.scene.meshio import load_mesh
 from nlos_spotlight.scene.orient import detect_up_axis, dominant_planes, to_z_up, z_up_transform
 from nlos_spotlight.scene.scan import load_scan
 
-SCANS_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "real-scans"
-SCANS = ("copyroom.ply", "icl_livingroom2.obj", "icl_office2.obj")
+SCANS = ("copyroom.ply", "icl_livingroom2.obj", "icl_office2.obj")  # in ../shared/data/real-scans
+
 ICL = ("icl_livingroom2.obj", "icl_office2.obj")
 
 
-def scan_path(name: str) -> Path:
-    path = SCANS_DIR / name
-    if not path.is_file():
-        msg = f"real scan {path} is missing (expected ../shared/data/real-scans beside the repo)"
-        if os.environ.get("CI") == "true":
-            pytest.fail(msg)
-        pytest.skip(msg)
-    return path
+@lru_cache(maxsize=None)
+def cleaned(path: Path) -> TriMesh:
+    return clean_mesh(load_mesh(path))
 
 
 @lru_cache(maxsize=None)
-def cleaned(name: str) -> TriMesh:
-    return clean_mesh(load_mesh(scan_path(name)))
-
-
-@lru_cache(maxsize=None)
-def z_up(name: str) -> TriMesh:
-    return load_scan(scan_path(name))
+def z_up(path: Path) -> TriMesh:
+    return load_scan(path)
 
 
 def _flat_area(mesh: TriMesh, zlo: float, zhi: float) -> tuple[float, float]:
@@ -53,8 +42,8 @@ def _flat_area(mesh: TriMesh, zlo: float, zhi: float) -> tuple[float, float]:
 # ---------------------------------------------------------------- real scans
 
 @pytest.mark.parametrize("name", SCANS)
-def test_clean_real_scan(name):
-    raw, mesh = load_mesh(scan_path(name)), cleaned(name)
+def test_clean_real_scan(name, real_scan):
+    raw, mesh = load_mesh(real_scan(name)), cleaned(real_scan(name))
     assert len(mesh.vertices) <= len(raw.vertices) and len(mesh.faces) <= len(raw.faces)
     assert mesh.face_areas().min() > 0
     assert len(np.unique(np.sort(mesh.faces, axis=1), axis=0)) == len(mesh.faces)
@@ -68,17 +57,17 @@ def test_clean_real_scan(name):
 
 
 @pytest.mark.parametrize("name", ICL)
-def test_icl_up_axis_is_minus_y(name):
+def test_icl_up_axis_is_minus_y(name, real_scan):
     # Both ICL-NUIM reconstructions are y *down* (camera convention): the furniture stands
     # on the +y end (checked by rendering them). Their README says "y up": the axis is right,
     # the sign is not.
-    up = detect_up_axis(cleaned(name))
+    up = detect_up_axis(cleaned(real_scan(name)))
     assert abs(np.linalg.norm(up) - 1) < 1e-9
     assert up[1] < -0.99
 
 
-def test_copyroom_is_tilted_and_found():
-    up = detect_up_axis(cleaned("copyroom.ply"))
+def test_copyroom_is_tilted_and_found(real_scan):
+    up = detect_up_axis(cleaned(real_scan("copyroom.ply")))
     angle_to_axes = np.degrees(np.arccos(np.abs(up)))
     assert angle_to_axes.min() > 20  # not axis aligned: the scan's camera frame is tilted
     # the up found by rendering the scan (shelves, counter and bins upright): ~37 deg off -y
@@ -86,8 +75,8 @@ def test_copyroom_is_tilted_and_found():
 
 
 @pytest.mark.parametrize("name", SCANS)
-def test_z_up_floor_at_bottom(name):
-    mesh = z_up(name)
+def test_z_up_floor_at_bottom(name, real_scan):
+    mesh = z_up(real_scan(name))
     z = mesh.vertices[:, 2]
     height = np.quantile(z, 0.995) - np.quantile(z, 0.005)
     assert 2.2 < height < 3.2  # floor to ceiling of a room
@@ -102,8 +91,8 @@ def test_z_up_floor_at_bottom(name):
 
 
 @pytest.mark.parametrize("name", SCANS)
-def test_z_up_planes_axis_aligned(name):
-    axes, frac = dominant_planes(z_up(name))
+def test_z_up_planes_axis_aligned(name, real_scan):
+    axes, frac = dominant_planes(z_up(real_scan(name)))
     assert len(axes) >= 3
     for n in axes[:3]:  # the largest planes: floor/ceiling, then walls
         assert abs(n[2]) > np.cos(np.radians(5)) or abs(n[2]) < np.sin(np.radians(5))
@@ -113,24 +102,24 @@ def test_z_up_planes_axis_aligned(name):
     assert walls and max(np.abs(walls[0][:2])) > np.cos(np.radians(5))
 
 
-def test_explicit_up_matches_detection():
+def test_explicit_up_matches_detection(real_scan):
     name = "icl_office2.obj"
-    auto, given = z_up(name), load_scan(scan_path(name), up="-y")
+    auto, given = z_up(real_scan(name)), load_scan(real_scan(name), up="-y")
     np.testing.assert_allclose(given.vertices, auto.vertices, atol=0.03)
-    flipped = load_scan(scan_path(name), up="y")  # wrong on purpose: the ceiling becomes the floor
+    flipped = load_scan(real_scan(name), up="y")  # wrong on purpose: the ceiling becomes the floor
     up_mid, down_mid = _flat_area(flipped, 0.3, 1.3)
     assert down_mid > up_mid
 
 
-def test_load_scan_decimates():
-    mesh = load_scan(scan_path("icl_office2.obj"), target_vertices=600)
+def test_load_scan_decimates(real_scan):
+    mesh = load_scan(real_scan("icl_office2.obj"), target_vertices=600)
     assert abs(len(mesh.vertices) - 600) <= 60
     assert abs(np.quantile(mesh.vertices[:, 2], 0.005)) < 0.1
 
 
-def test_load_scan_bad_input(tmp_path):
+def test_load_scan_bad_input(tmp_path, real_scan):
     with pytest.raises(NlosError, match="up axis"):
-        load_scan(scan_path("icl_office2.obj"), up="up")
+        load_scan(real_scan("icl_office2.obj"), up="up")
     with pytest.raises(NlosError, match="not found"):
         load_scan(tmp_path / "missing.ply")
 

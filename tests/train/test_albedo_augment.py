@@ -6,13 +6,12 @@ import numpy as np
 import pytest
 import torch
 
-from conftest import glossy_corner_pair
 from nlos_spotlight.render.person import Person
 from nlos_spotlight.train.imaging import albedo_factors, form_images
 from nlos_spotlight.world.body import _clothing_albedo, clothing_albedo
 
 
-def test_person_light_scales_with_albedo_as_rendered():
+def test_person_light_scales_with_albedo_as_rendered(glossy_corner_pair):
     """Rendering the same body in two albedos gives what ``albedo_factors`` predicts from one."""
     _, r, person = glossy_corner_pair(300, "float64", pair_loops=True)
     mesh = r.scene.human.mesh

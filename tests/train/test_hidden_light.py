@@ -8,14 +8,13 @@ import numpy as np
 import pytest
 import torch
 
-from conftest import glossy_corner_pair
 from nlos_spotlight.errors import NlosError
 from nlos_spotlight.scene.format import Ambient
 from nlos_spotlight.train.imaging import form_images, relit_hidden_region
 from nlos_spotlight.world.calibration import ambient_radiance_per_channel, illuminance_lux
 
 
-def test_hidden_light_scales_the_person_light_as_rendered():
+def test_hidden_light_scales_the_person_light_as_rendered(glossy_corner_pair):
     """``relit_hidden_region`` from one render equals a render of the hidden region at 0.2x its
     radiance, and neither the projector's light on the person nor the person-free image change."""
     _, r, person = glossy_corner_pair(300, "float64", pair_loops=True)
