@@ -14,7 +14,7 @@ Lighting score of each face: a physics prior the IEN can refine; with ``--prior-
 prior's log also enters the logits, so the IEN learns a correction of it). Training rooms are rooms 0..N-1
 of the split and evaluation rooms the next ones by index, so reruns compare on the same rooms.
 
-    python benchmarks/ien_across_rooms.py --data out/unseen/train [--test out/unseen/test] \\
+    python experiments/ien-across-rooms/ien_across_rooms.py --data out/unseen/train [--test out/unseen/test] \\
         [--train-rooms 30] [--eval-rooms 15] [--features "normals;normals,region"] [--steps 2000]
 """
 

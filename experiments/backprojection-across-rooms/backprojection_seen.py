@@ -1,9 +1,9 @@
 """FloorNet in the learning curve's rooms: physics first against 3,000 people of the room (issues 10, 12).
 
-The learning curve (``benchmarks/learning_curve.py``, ``docs/results/learning-curve.csv``) trains an
-image network on up to 3,000 people of each of its 3 rooms and scores the 100 held-out people of
-each (``evaluate.seen.split_masks``). Here the FloorNet of ``benchmarks/backprojection_net.py``,
-trained on the 200 rooms of the unseen-room datasets and on no person of these rooms, reads the
+The learning curve (``experiments/seen-rooms-learning-curve/learning_curve.py``,
+``docs/results/learning-curve.csv``) trains an image network on up to 3,000 people of each of its 3
+rooms and scores the 100 held-out people of each (``evaluate.seen.split_masks``). Here the FloorNet
+of ``backprojection_net.py`` (this folder), trained on the 200 rooms of the unseen-room datasets and on no person of these rooms, reads the
 same held-out people's photographs (default capture, noise drawn with a fixed seed per room) under
 each policy's spot, through the matched filter of each room's own scan. The answer for the mean is
 the room's training pool's mean position, as in the learning curve.
@@ -13,8 +13,8 @@ does: on each room's training pool (up to ``--people`` a room) under its stored 
 every step, the weights of the lowest error on the rooms' validation people kept (the seen-rooms
 protocol), starting from the 200-room weights.
 
-    python benchmarks/backprojection_seen.py --data out/lc/data --run out/backprojection-net/t2-s0 \\
-        [--policies oracle,adaptive,center,random] [--finetune STEPS] [--people 3000] [--seed 0] \\
+    python experiments/backprojection-across-rooms/backprojection_seen.py --data out/lc/data \\
+        --run out/backprojection-net/t2-s0 [--policies oracle,adaptive,center,random] [--finetune STEPS] [--people 3000] [--seed 0] \\
         [--out docs/results/backprojection-seen.csv]
 """
 
@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from backprojection_net import predict, room_arrays
+from backprojection_net import predict, room_arrays  # this folder: run as a script
 from nlos_spotlight.console import console
 
 

@@ -3,18 +3,18 @@
 The networks trained across 200 rooms carry position over to new rooms but not posture. The room's
 scan is known at test time (the IEN reads it), so the renderer can make training people in it, as
 ``nlos fit`` does for a user's room. Hypothesis: a network trained only on simulated people of the
-test room reads posture there, and the gap to the ideal observer (``posture_separability.py
---split test``) says how much is left.
+test room reads posture there, and the gap to the ideal observer
+(``experiments/physics-bounds/posture_separability.py --split test``) says how much is left.
 
 Per test room of ``--test`` (the first ``--rooms``): ``--people`` synthetic people in that room's
 scene (``DatasetConfig.room``; another master seed, so none is a test person), the first
 ``--transport`` of them with full transport to choose the spot (the oracle on the synthetic people:
 nothing of the test people is used), then the seen-rooms recipe (``evaluate.seen``) on the image
 samples, best weights by validation on 100 of them. Scored on the room's real test people (the
-static ones; the default one-frame capture and noise draws of ``benchmarks/unseen_rooms.py``)
+static ones; the default one-frame capture and noise draws of ``experiments/unseen-rooms/unseen_rooms.py``)
 under the spot chosen from the synthetic people and under the room's oracle spot.
 
-    python benchmarks/unseen_room_fit.py --test out/unseen/test --rooms 6 --people 1500 --out out/unseen/room-fit
+    python experiments/unseen-room-fit/unseen_room_fit.py --test out/unseen/test --rooms 6 --people 1500 --out out/unseen/room-fit
 
 ``--variants`` trains one network per variant on the same people: frames a still capture averages
 (training and test photographs), ``+albedo`` albedo augmentation, ``+eN`` N epochs, ``+pN`` only
@@ -428,7 +428,8 @@ def main() -> None:
     ap.add_argument("--compare", nargs="*", default=[], metavar="NAME=NPZ",
                     help="predictions of networks trained across rooms on the same test set, for the summary")
     ap.add_argument("--ceiling", type=Path, default=Path("docs/results/posture-ceiling-unseen.txt"),
-                    help="posture_separability.py --split test's output: the ideal observer per person")
+                    help="experiments/physics-bounds/posture_separability.py --split test's output: "
+                         "the ideal observer per person")
     ap.add_argument("--summary-only", action="store_true", help="only the summary of the rooms fitted so far")
     ap.add_argument("--hidden-light", action="store_true",
                     help="summary: only the '+lux' variants (every method in that light, and each beside itself and "

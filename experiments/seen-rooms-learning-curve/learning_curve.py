@@ -17,9 +17,9 @@ Each run is resumable and keeps its scores in ``--runs``/KEY/result.json; the ta
 ``--out``/learning-curve.csv (``protocol,capture,policy,people_per_room,posture_accuracy,
 posture3_accuracy,error_cm,crb_cm,seeds``; accuracies in %, errors in cm), with ``arch`` and
 ``mean_answer_cm`` columns beside them, a JSON of the confusion matrices and a plot. ``crb_cm`` comes
-from ``benchmarks/position_crb.py`` (``--crb`` its JSON) where it was run.
+from ``experiments/physics-bounds/position_crb.py`` (``--crb`` its JSON) where it was run.
 
-    python benchmarks/learning_curve.py --data out/lc/data [--sizes 100,300,1000,3000] [--epochs 30]
+    python experiments/seen-rooms-learning-curve/learning_curve.py --data out/lc/data [--sizes 100,300,1000,3000] [--epochs 30]
 """
 
 from __future__ import annotations
@@ -143,7 +143,8 @@ def main() -> None:
     ap.add_argument("--policies", default="ien,adaptive,center,random", help="other spots at the largest size")
     ap.add_argument("--backbone", default="resnet10-narrow")
     ap.add_argument("--stem", default="half", help="stem of the lighter backbone: half (stride 2; the best in "
-                                                   "benchmarks/learning_ablation.py), imagenet (stride 4) or cifar")
+                                                   "experiments/seen-rooms-learning-curve/learning_ablation.py), "
+                                                   "imagenet (stride 4) or cifar")
     ap.add_argument("--pool-grid", type=int, default=1, help="lighter backbone: last map pooled to g x g cells")
     ap.add_argument("--min-steps", type=int, default=0, help="train at least this many steps at any size")
     ap.add_argument("--resnet18", action="store_true", help="also ResNet-18 once at the largest size")
@@ -174,7 +175,7 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--runs", default="out/learning-curve/runs")
     ap.add_argument("--out", default="docs/results")
-    ap.add_argument("--crb", default="", help="JSON of benchmarks/position_crb.py: crb_cm per policy")
+    ap.add_argument("--crb", default="", help="JSON of experiments/physics-bounds/position_crb.py: crb_cm per policy")
     ap.add_argument("--quiet", action="store_true")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)

@@ -1,4 +1,4 @@
-"""Merge ``benchmarks/unseen_rooms.py`` results: one CSV, a markdown table (mean +- std over seeds)
+"""Merge ``experiments/unseen-rooms/unseen_rooms.py`` results: one CSV, a markdown table (mean +- std over seeds)
 and the rooms curve.
 
 Several runs of ``unseen_rooms.py`` (different nets, room counts, seeds or captures, run side by
@@ -10,7 +10,7 @@ per (net, capture, policy, rooms, seed), and writes:
   mean +- standard deviation over the seeds, with the mean answer;
 * ``--out``/unseen-rooms.png: error and posture against training rooms, oracle spot, seed means.
 
-    python benchmarks/unseen_rooms_table.py docs/results/unseen-*/unseen-rooms.csv --out docs/results/unseen-rooms
+    python experiments/unseen-rooms/unseen_rooms_table.py docs/results/unseen-*/unseen-rooms.csv --out docs/results/unseen-rooms
 """
 
 from __future__ import annotations

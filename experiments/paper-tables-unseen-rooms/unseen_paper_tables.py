@@ -1,18 +1,19 @@
 """The paper's Tables 1-3 and Figures 5-6 on rooms no network trained in (issue 12).
 
-Reads the per-person predictions that ``benchmarks/backprojection_net.py`` (FloorNet: ours with the
-IEN's spot) and ``benchmarks/unseen_rooms.py`` (the image networks and the baselines) write beside
-each run, every seed of every method, on the same 40 test rooms of ``unseen-test.yaml`` under the
-same spots (each policy draws with the same new-room key) and the same sensor-noise seeds:
+Reads the per-person predictions that ``experiments/backprojection-across-rooms/backprojection_net.py``
+(FloorNet: ours with the IEN's spot) and ``experiments/unseen-rooms/unseen_rooms.py`` (the image
+networks and the baselines) write beside each run, every seed of every method, on the same 40 test
+rooms of ``unseen-test.yaml`` under the same spots (each policy draws with the same new-room key) and the same sensor-noise seeds:
 
 * Table 1: six-way posture accuracy per posture; Table 2: localization error per posture. Both on
   the static people (30 a room; the walks are Figure 5's), mean +- sample std over seeds.
 * Table 3: every spot policy against every network (error / six-way accuracy), with each policy's
-  spot SNR over the oracle's (``--snr``, ``unseen_rooms.py``'s ``spot-snr.csv``).
+  spot SNR over the oracle's (``--snr``, ``experiments/unseen-rooms/unseen_rooms.py``'s
+  ``spot-snr.csv``).
 * Figure 5: ours on the test rooms' walks (20 frames at 5 Hz), raw and Savitzky-Golay smoothed
   (``evaluate.tracking``); Figure 6: error and accuracy per policy and network.
 
-    python benchmarks/unseen_paper_tables.py --out docs/results/unseen-paper
+    python experiments/paper-tables-unseen-rooms/unseen_paper_tables.py --out docs/results/unseen-paper
 """
 
 from __future__ import annotations
@@ -141,17 +142,18 @@ def mean_answer_cm(args, preds: list[dict]) -> float:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--floor-net", type=Path, default=Path("out/backprojection-net"), help="FloorNet runs (t2-sSEED)")
-    ap.add_argument("--runs", type=Path, default=Path("out/unseen/runs-s2400"), help="unseen_rooms.py --runs")
+    ap.add_argument("--runs", type=Path, default=Path("out/unseen/runs-s2400"), help="experiments/unseen-rooms/unseen_rooms.py --runs")
     ap.add_argument("--snr", type=Path, default=Path("docs/results/unseen-geometry/spot-snr.csv"))
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--out", type=Path, default=Path("docs/results/unseen-paper"))
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     snr = snr_table(args.snr)
-    lines, csv_rows = ["# Tables 1-3 on 40 unseen rooms (`benchmarks/unseen_paper_tables.py`)", ""], []
+    lines = ["# Tables 1-3 on 40 unseen rooms (`experiments/paper-tables-unseen-rooms/unseen_paper_tables.py`)", ""]
+    csv_rows = []
     got = {r.key: seeds_of(args, r.net, r.policy) for r in ROWS}
     if not got["ours"]:
-        raise SystemExit(f"no predictions of ours under {args.floor_net} (run backprojection_net.py with --ien)")
+        raise SystemExit(f"no predictions of ours under {args.floor_net} (run experiments/backprojection-across-rooms/backprojection_net.py with --ien)")
     chance = mean_answer_cm(args, got["ours"])
     per = {k: [scores(p) for p in v] for k, v in got.items() if v}
     for t, (title, j, unit) in enumerate((("Table 1: six-way posture accuracy (%)", 0, "%"),

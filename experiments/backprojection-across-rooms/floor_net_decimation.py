@@ -5,9 +5,9 @@ decimated to each ratio of ``evaluate.decimation.RATIOS``; the IEN (trained acro
 Adaptive Lighting prior) picks a face there, the projector's aim snaps to the nearest stored
 candidate (``evaluate.decimation.choices``; the snap distance is reported), and FloorNet localizes
 every test person of the room under that spot with the same noise draws as
-``benchmarks/backprojection_net.py``.
+``experiments/backprojection-across-rooms/backprojection_net.py``.
 
-    python benchmarks/floor_net_decimation.py --test out/unseen/test \\
+    python experiments/backprojection-across-rooms/floor_net_decimation.py --test out/unseen/test \\
         --ien out/unseen/runs-s2400/ien-normals-adaptive-prior1-2000steps/ien.pt \\
         --runs out/backprojection-net/t2-s0 out/backprojection-net/t2-s1 out/backprojection-net/t2-s2 \\
         --out docs/results/unseen-paper/fig7-decimation.csv
@@ -28,7 +28,7 @@ from types import SimpleNamespace
 import numpy as np
 import torch
 
-from backprojection_net import predict, room_arrays
+from backprojection_net import predict, room_arrays  # this folder: run as a script
 
 
 def room_choices(d: Path, ien, cache: Path) -> list[dict]:

@@ -22,7 +22,7 @@ projector-off one does.
 
 The SNR and the center choice are the package's (``nlos_spotlight.lighting.snr``, ``.center``).
 
-    python benchmarks/spot_matters.py --data DIR [--split test] [--rooms N]
+    python experiments/spot-matters/spot_matters.py --data DIR [--split test] [--rooms N]
 """
 
 from __future__ import annotations

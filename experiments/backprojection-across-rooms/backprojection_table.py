@@ -1,10 +1,11 @@
-"""Merge ``benchmarks/backprojection_net.py`` runs into one table: mean +- std over seeds.
+"""Merge ``backprojection_net.py`` runs (this folder) into one table: mean +- std over seeds.
 
 Each run directory holds ``backprojection-net.csv`` and ``run.json`` (its arguments: templates,
 seed, steps, capture). Floor-net rows are grouped by (capture, templates, steps, policy); the
 matched filter and the mean answer by (capture, policy), one run per seed.
 
-    python benchmarks/backprojection_table.py out/backprojection-net/* --out docs/results/backprojection-net
+    python experiments/backprojection-across-rooms/backprojection_table.py out/backprojection-net/* \\
+        --out docs/results/backprojection-net
 """
 
 from __future__ import annotations

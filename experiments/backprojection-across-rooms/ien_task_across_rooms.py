@@ -1,12 +1,13 @@
 """The IEN trained on the task loss across rooms (issue 12, item 3), beside its SNR target.
 
-The network that carries position to new rooms is FloorNet (``benchmarks/backprojection_net.py``),
+The network that carries position to new rooms is FloorNet (``backprojection_net.py``, this folder),
 so the task is FloorNet's: its own training loss, the position error (m) plus 0.3 x the posture
 cross-entropy. With FloorNet frozen, every landed candidate spot t of a training room gets that
 loss L_t on the room's full-transport people, whom FloorNet never trained on (it trains on the
 image samples), averaged over ``--draws`` noise draws of the default capture ("task tables",
 cached per room, resumable, buildable in shards). The IEN (vertex features normals + the Adaptive
-Lighting score, the log prior in its logits, as in ``ien_across_rooms.py``) is then trained with:
+Lighting score, the log prior in its logits, as in ``experiments/ien-across-rooms/ien_across_rooms.py``)
+is then trained with:
 
 * ``snr``: two-stage training's first stage, the cross-entropy to softmax(SNR / max / snr_tau);
 * ``task``: the expected task loss under its spot distribution, sum_t p_t L_t. The network is
@@ -27,7 +28,7 @@ people a room's task target needs), and the same on the training rooms' 8 people
 ``--score-nets``: the same spots scored with
 other FloorNet runs too (other seeds), which the IEN was not trained through.
 
-    python benchmarks/ien_task_across_rooms.py --train out/unseen/train --test out/unseen/test \\
+    python experiments/backprojection-across-rooms/ien_task_across_rooms.py --train out/unseen/train --test out/unseen/test \\
         --floor-net out/backprojection-net/t2-s0 [--rooms 200] [--objectives snr,task,task+snr,task-ce] \\
         [--seeds 2] [--steps 2000] [--draws 4] [--table-people K] [--bound] [--shard I/N] [--out CSV]
 """
@@ -37,7 +38,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -46,13 +46,12 @@ import torch
 import torch.nn.functional as F
 from rich.progress import track
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from backprojection_net import predict, room_arrays  # noqa: E402
+from backprojection_net import predict, room_arrays  # this folder: run as a script
 
-from nlos_spotlight.console import QUIET, console  # noqa: E402
+from nlos_spotlight.console import QUIET, console
 
 FEATURES = ["normals", "adaptive"]
-"""The IEN's vertex features: those of the IEN that met the SNR goal (``ien_across_rooms.py``)."""
+"""The IEN's vertex features: those of the IEN that met the SNR goal (``experiments/ien-across-rooms/ien_across_rooms.py``)."""
 POSTURE_WEIGHT = 0.3
 """FloorNet's posture cross-entropy weight in its training loss (``backprojection_net.train_floor_net``)."""
 

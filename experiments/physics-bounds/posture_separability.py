@@ -28,8 +28,8 @@ frame and for ``--frames`` (a burst): the ceiling that no network reading the ph
 mean over the people. With ``--split test`` the people are the first static people of each room of
 a test dataset (``unseen-test.yaml``: rooms no network trained in), under the room's oracle spot.
 
-    python benchmarks/posture_separability.py --data out/lc/data --people 6
-    python benchmarks/posture_separability.py --data out/unseen/test --split test --people 3 \
+    python experiments/physics-bounds/posture_separability.py --data out/lc/data --people 6
+    python experiments/physics-bounds/posture_separability.py --data out/unseen/test --split test --people 3 \
         --json docs/results/posture-ceiling-unseen.json
 """
 
@@ -55,7 +55,7 @@ from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.render.sensor import auto_exposure, dn_per_radiance, noise_variance_dn
 from nlos_spotlight.render.transport import Renderer
 from nlos_spotlight.world.body import HEIGHT_RANGE_M, POSTURES, posed_body
-from position_crb import room_renderer, seen_test_specs
+from position_crb import room_renderer, seen_test_specs  # this folder: run as a script
 
 STEPS = {"x": 0.01, "y": 0.01, "facing_deg": 2.0, "height_m": 0.01, "albedo_r": 0.01, "albedo_g": 0.01,
          "albedo_b": 0.01}

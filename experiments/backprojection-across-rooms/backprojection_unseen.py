@@ -15,7 +15,7 @@ cell is the answer. Three inputs per policy and capture:
 Prints and writes per room and overall mean errors (cm) beside the mean answer (the training
 rooms' mean position, ``--train``), to ``--out`` (CSV).
 
-    python benchmarks/backprojection_unseen.py --train out/unseen/train --test out/unseen/test \\
+    python experiments/backprojection-across-rooms/backprojection_unseen.py --train out/unseen/train --test out/unseen/test \\
         [--rooms 40] [--policies oracle,adaptive,center,random] [--seed 0] [--out CSV]
 """
 

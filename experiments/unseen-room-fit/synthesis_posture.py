@@ -1,11 +1,12 @@
 """Posture by analysis by synthesis: render the six postures in the room's scan, keep the nearest.
 
 The per-room fit (``unseen_room_fit.py``) learns a room's light transport from thousands of people
-rendered in its scan; the ideal observer (``posture_separability.py``) says the photograph holds
-posture. This reads posture with no training at all: for each test photograph, the person's light
-(photograph minus empty-room photograph, both noisy) is compared with the six postures' light
-rendered in the room's scan under the same spot, and the posture whose rendering fits best (chi^2
-whitened by the photographs' noise, clipped pixels left out) is the answer.
+rendered in its scan; the ideal observer (``experiments/physics-bounds/posture_separability.py``)
+says the photograph holds posture. This reads posture with no training at all: for each test
+photograph, the person's light (photograph minus empty-room photograph, both noisy) is compared with
+the six postures' light rendered in the room's scan under the same spot, and the posture whose
+rendering fits best (chi^2 whitened by the photographs' noise, clipped pixels left out) is the
+answer.
 
 The clothing albedo is always fitted, exactly: the renderer's person light is affine in the
 albedo a per channel, L(a) = a N + (1 - a) Q (the projector's light on the body N, and Q the
@@ -44,9 +45,9 @@ accuracy and error on the same photographs with ``--fit-runs``, median chi^2 per
 posture and at the answer, the place error, renders, seconds; resumable per room and level) and
 per-person predictions.
 
-    python benchmarks/synthesis_posture.py --test out/unseen/test --rooms 0-11 --know body place \
+    python experiments/unseen-room-fit/synthesis_posture.py --test out/unseen/test --rooms 0-11 --know body place \
         --fit-runs out/unseen/room-fit-3000 --out out/unseen/synthesis
-    python benchmarks/synthesis_posture.py --test out/unseen/test --rooms 0-11 --know position none \
+    python experiments/unseen-room-fit/synthesis_posture.py --test out/unseen/test --rooms 0-11 --know position none \
         --people 15 --fit-runs out/unseen/room-fit-3000 --out out/unseen/synthesis
 """
 
@@ -56,22 +57,20 @@ import argparse
 import csv
 import dataclasses
 import json
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from fitted_rooms_transfer import room_range  # noqa: E402
-from unseen_room_fit import read_fit_rows, room_interval, run_dir, static_people, write_rows  # noqa: E402
+from fitted_rooms_transfer import room_range  # this folder: run as a script
+from unseen_room_fit import read_fit_rows, room_interval, run_dir, static_people, write_rows
 
-from nlos_spotlight.data.static import read_static  # noqa: E402
-from nlos_spotlight.data.store import atomic_npz  # noqa: E402
-from nlos_spotlight.evaluate.synthesis import (Bank, Synthesizer, albedo_fit, floor_cells, mean_body,  # noqa: E402
+from nlos_spotlight.data.static import read_static
+from nlos_spotlight.data.store import atomic_npz
+from nlos_spotlight.evaluate.synthesis import (Bank, Synthesizer, albedo_fit, floor_cells, mean_body,
                                                read_photograph)
-from nlos_spotlight.render.sensor import SensorConfig  # noqa: E402
+from nlos_spotlight.render.sensor import SensorConfig
 
 COLUMNS = ["room", "know", "spot", "people", "accuracy", "accuracy3", "fit_accuracy", "chi2_true", "chi2_best",
            "error_cm", "fit_error_cm", "renders", "seconds"]

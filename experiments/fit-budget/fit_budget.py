@@ -4,14 +4,13 @@ The fit's own recipe (``fit.train.fit_train_config``: capture, spot policy, netw
 people, each epoch count a resumable run under ``--runs``; prints and writes a CSV of held-out
 posture accuracy, grouped accuracy, error and training time.
 
-    python benchmarks/fit_budget.py out/fits/copyroom --epochs 10,30,60 [--people 1000,3000]
+    python experiments/fit-budget/fit_budget.py out/fits/copyroom --epochs 10,30,60 [--people 1000,3000]
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
-import dataclasses
 import json
 from pathlib import Path
 

@@ -2,7 +2,7 @@
 
 Every variant trains on the first N pool people of each training room (``evaluate.seen``'s split:
 the same validation and test people for all) under the room's oracle spot and is scored on the
-test people. The baseline is the learning curve's recipe (``benchmarks/learning_curve.py``); each
+test people. The baseline is the learning curve's recipe (``learning_curve.py``, this folder); each
 other variant changes one thing:
 
 * ``per-room``: one network per room (what ``nlos fit`` trains) instead of one for all rooms;
@@ -20,7 +20,7 @@ other variant changes one thing:
 Variants compose with ``+`` (e.g. ``mixed-batches+cifar-stem``). Resumable (the runs of
 ``evaluate.seen``); writes ``--out``/learning-ablation.csv.
 
-    python benchmarks/learning_ablation.py --data out/lc/data --n 1000 --capture noise-free \\
+    python experiments/seen-rooms-learning-curve/learning_ablation.py --data out/lc/data --n 1000 --capture noise-free \\
         --variants baseline,per-room,mixed-batches
 """
 
@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from learning_curve import load_rooms
+from learning_curve import load_rooms  # this folder: run as a script
 from nlos_spotlight.evaluate.seen import run_seen, seen_config, split_room
 from nlos_spotlight.train.config import TrainConfig
 

@@ -5,9 +5,10 @@ For each training room of a dataset and each policy's spot there (read from the 
 k % 10 == 9) are re-posed from the dataset's deterministic specs, rendered at +-1 cm in x and y
 through the same renderer settings, and the Fisher information of one capture under the default
 sensor (``nlos_spotlight.evaluate.crb``) gives sqrt(trace(J^-1)) per person. Prints the mean per
-policy and writes a JSON ``{policy: crb_cm}`` for ``learning_curve.py --crb``.
+policy and writes a JSON ``{policy: crb_cm}`` for
+``experiments/seen-rooms-learning-curve/learning_curve.py --crb``.
 
-    python benchmarks/position_crb.py --data out/lc/data --runs out/learning-curve/runs [--people 10]
+    python experiments/physics-bounds/position_crb.py --data out/lc/data --runs out/learning-curve/runs [--people 10]
 """
 
 from __future__ import annotations

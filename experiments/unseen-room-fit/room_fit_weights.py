@@ -11,7 +11,7 @@ run's last step) scored on the 100 held-out simulated people and on the room's 3
 people, under the spot the fit chose (read from the room's ``room-fit-*.csv`` row), with the noise
 draws ``unseen_room_fit.py`` scored with: the best weights' rows reproduce its rows exactly.
 
-    python benchmarks/room_fit_weights.py --fits out/unseen/room-fit-3000 --test out/unseen/test \
+    python experiments/unseen-room-fit/room_fit_weights.py --fits out/unseen/room-fit-3000 --test out/unseen/test \
         --variants 16+e120 16+e120+x2 --out docs/results/unseen-room-fit-3000/weights.csv
 
 Writes the CSV (room, variant, weights, step, split, people, posture_accuracy, posture3_accuracy,

@@ -12,7 +12,7 @@ observer reads 97%. Two explanations predict different things:
 Per fitted room and variant: the best weights (``best.pt``) scored on the first ``--train-people``
 training people and on the 100 held-out people, both under the fitted spot with fresh noise draws.
 
-    python benchmarks/room_fit_gap.py --fits out/unseen/room-fit-3000 --variants 16 16+e120 \
+    python experiments/unseen-room-fit/room_fit_gap.py --fits out/unseen/room-fit-3000 --variants 16 16+e120 \
         --out docs/results/unseen-room-fit-3000/gap.csv
 
 Writes the CSV (room, variant, split, people, posture_accuracy, posture3_accuracy, error_cm) and
@@ -41,7 +41,7 @@ def score_room(room: Path, variant: str, train_people: int, seed: int) -> list[d
 
     run = run_dir(room, variant)
     if not (run / "best.pt").exists():
-        raise SystemExit(f"{run}: no best.pt (fit the room first: benchmarks/unseen_room_fit.py)")
+        raise SystemExit(f"{run}: no best.pt (fit the room first: experiments/unseen-room-fit/unseen_room_fit.py)")
     if parse_variant(variant).renders > 1:  # its spot was chosen on the renders together
         raise SystemExit(f"--variants {variant}: people of several renders are not scored here")
     cfg = TrainConfig.from_dict(json.loads((run / "config.json").read_text())["train"])

@@ -7,7 +7,7 @@ frame included), keeps the weights with the lowest error on the validation rooms
 test rooms' people under each policy's spot, beside the matched filter's own best cell on the
 same noisy photographs.
 
-    python benchmarks/backprojection_net.py --train out/unseen/train --test out/unseen/test \\
+    python experiments/backprojection-across-rooms/backprojection_net.py --train out/unseen/train --test out/unseen/test \\
         [--rooms 200] [--steps 3000] [--templates 1|2] [--capture photo|spot] [--mask placement|free] \\
         [--seed 0] [--ien IEN_PT] [--out DIR]
 
@@ -177,8 +177,8 @@ def main() -> None:
     ap.add_argument("--templates", type=int, default=1, choices=(1, 2),
                     help="2: also the filter of a person lit evenly (the person's ambient light)")
     ap.add_argument("--ien", type=Path, default=None,
-                    help="ien.pt of benchmarks/unseen_rooms.py --ien (features normals,adaptive, prior weight 1): "
-                         "score its spot too")
+                    help="ien.pt of experiments/unseen-rooms/unseen_rooms.py --ien (features normals,adaptive, "
+                         "prior weight 1): score its spot too")
     ap.add_argument("--capture", choices=CAPTURES, default="photo",
                     help="spot: projector-off frames too, the person's ambient light removed (CAPTURES)")
     ap.add_argument("--mask", choices=("placement", "free"), default="placement",
@@ -229,7 +229,7 @@ def main() -> None:
            for p in policies}
     for i, d in enumerate(test_dirs):  # rooms outside: one backprojector a room
         s = load_scene_tensors(d, feats, samples="transport")
-        # the i-th test room's key, as benchmarks/unseen_rooms.py draws it (evaluate.unseen.room_lights)
+        # the i-th test room's key, as experiments/unseen-rooms/unseen_rooms.py draws it (evaluate.unseen.room_lights)
         faces = [policy_named(policy, ien)(s, Path(d), policy_rng(args.seed, i, new_room=True)).face
                  for policy in policies]
         r = room_arrays(d, faces, "transport", args.capture, args.mask)

@@ -5,7 +5,7 @@ config, ``benchmarks/configs/rooms/NAME.yaml`` (``nlos fit --config``); every fi
 ``--out``/real-scan-fits.csv (room, people, posture and grouped accuracy, error, mean-position
 answer, spot, pan/tilt, burst, generation and total time) and prints the command of each fit.
 
-    python benchmarks/real_scan_fits.py [--rooms copyroom,icl_livingroom2,icl_office2] [--people N]
+    python experiments/real-scan-fits/real_scan_fits.py [--rooms copyroom,icl_livingroom2,icl_office2] [--people N]
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import shlex
 import sys
 from pathlib import Path
 
-CONFIGS = Path(__file__).parent / "configs" / "rooms"
+CONFIGS = Path(__file__).resolve().parents[2] / "benchmarks" / "configs" / "rooms"  # the setups stay with the benchmarks
 
 
 def fit_command(name: str, out: Path, extra: list[str]) -> list[str]:

@@ -20,7 +20,7 @@ Scored, with the per-room fits' sensor noise (so each person's photograph is the
   simulated people (``kind=simulated``), rooms the network never saw;
 - ``seen`` rows: the training rooms' own held-out simulated and test people.
 
-    python benchmarks/fitted_rooms_transfer.py --fits out/unseen/room-fit-3000 --test out/unseen/test \\
+    python experiments/unseen-room-fit/fitted_rooms_transfer.py --fits out/unseen/room-fit-3000 --test out/unseen/test \\
         --train-rooms 0-5 --eval-rooms 6-11 --out out/unseen/transfer/a
 
 Writes ``--out``/transfer.csv (room, role, kind, spot, people, posture_accuracy, posture3_accuracy,
@@ -34,18 +34,17 @@ import argparse
 import csv
 import dataclasses
 import json
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from unseen_room_fit import (first_seconds, read_fit_rows, room_interval, static_people, training_split,  # noqa: E402
+# this folder: run as a script
+from unseen_room_fit import (first_seconds, read_fit_rows, room_interval, static_people, training_split,
                              write_rows)
 
-from nlos_spotlight.errors import NlosError  # noqa: E402
+from nlos_spotlight.errors import NlosError
 
 COLUMNS = ["room", "role", "kind", "spot", "people", "posture_accuracy", "posture3_accuracy", "error_cm",
            "mean_answer_cm", "train_s"]

@@ -9,7 +9,7 @@ measured on the test room's own people (not the simulated people the fit chose f
 the right proxy, the points slope upward and spots of much lower SNR read posture worse; if the
 posture differences are flat in SNR, the choice among spots of similar SNR is a coin toss.
 
-    python benchmarks/spot_snr_posture.py --test out/unseen/test --fits out/unseen/room-fit-3000 \
+    python experiments/unseen-room-fit/spot_snr_posture.py --test out/unseen/test --fits out/unseen/room-fit-3000 \
         --base 16+e120+lux0 --others 16+e120+adaptive+lux0,16+e120+adaptive+lux0+s1 \
         16+e120+rank2+lux0,16+e120+rank2+lux0+s1 16+e120+rank3+lux0,16+e120+rank3+lux0+s1 16+e120+rank4+lux0 \
         16+e120+center+lux0,16+e120+center+lux0+s1 16+e120+center+lux0 \

@@ -24,7 +24,7 @@ Writes ``--out``/unseen-rooms.csv (``net,capture,policy,train_rooms,seed,posture
 posture3_accuracy,error_cm,mean_answer_cm,steps,seconds``), ``--out``/spot-snr.csv, and a plot of
 the learning curve over rooms. Resumable: every run keeps its weights and scores in ``--runs``.
 
-    python benchmarks/unseen_rooms.py --train out/unseen/train --test out/unseen/test \\
+    python experiments/unseen-rooms/unseen_rooms.py --train out/unseen/train --test out/unseen/test \\
         [--rooms 25,50,100,200] [--nets image,geometry,chandran,tancik,dlnlos] [--policies oracle,adaptive,center,random] [--ien] \
         [--epochs 40 | --steps 2400]
 """
@@ -140,7 +140,8 @@ def main() -> None:
     ap.add_argument("--ien", action="store_true", help="train the IEN across rooms and score its spot too")
     ap.add_argument("--ien-steps", type=int, default=2000)
     ap.add_argument("--ien-features", default="normals",
-                    help="the IEN's vertex features (benchmarks/ien_across_rooms.py), e.g. normals,adaptive")
+                    help="the IEN's vertex features (experiments/ien-across-rooms/ien_across_rooms.py), "
+                         "e.g. normals,adaptive")
     ap.add_argument("--ien-prior-weight", type=float, default=0.0,
                     help="with 'adaptive' features: this times the log prior in the IEN's logits")
     ap.add_argument("--epochs", type=float, default=40.0, help="passes over the training people")
