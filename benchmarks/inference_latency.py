@@ -247,7 +247,7 @@ def main() -> None:
         print(f"4. int8 on the room model {room} (held-out people, its capture)")
         int8_on_room_model(room)
     else:
-        print(f"4. skipped: no fitted room at {room} (python benchmarks/real_scan_fits.py)")
+        print(f"4. skipped: no fitted room at {room} (python experiments/real-scan-fits/real_scan_fits.py)")
 
 
 if __name__ == "__main__":

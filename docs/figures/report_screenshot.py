@@ -2,7 +2,7 @@
 
     python docs/figures/report_screenshot.py [--fit out/fits/copyroom] [--demo out/demo/report]
 
-The room model's report comes from ``python benchmarks/real_scan_fits.py`` (the copy room), the
+The room model's report comes from ``python experiments/real-scan-fits/real_scan_fits.py`` (the copy room), the
 evaluation report from ``make demo``. Each page is also checked the way the tests check it: every
 table, figure and heading laid out and every image decoded.
 """

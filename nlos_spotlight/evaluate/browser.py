@@ -1,5 +1,5 @@
 """Open a report in a real headless browser: what it laid out (tables, figures, decoded images) and a
-screenshot. Used by the tests and by ``benchmarks/report_screenshot.py``; needs a Chromium on the
+screenshot. Used by the tests and by ``docs/figures/report_screenshot.py``; needs a Chromium on the
 PATH (``chromium``, ``chromium-browser`` or ``google-chrome``, or ``$NLOS_CHROMIUM``)."""
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Seen rooms at scale: train on N people per room, score new people of the same rooms.
 
-The learning curve (``benchmarks/learning_curve.py``) runs this for several N, captures and spot
-policies. Per training room the static samples split by index k: ``k % 10 == 9`` test, ``k % 10 ==
+The learning curve (``experiments/seen-rooms-learning-curve/learning_curve.py``) runs this for
+several N, captures and spot policies. Per training room the static samples split by index k: ``k % 10 == 9`` test, ``k % 10 ==
 8`` validation (the first 100 of each), all others the training pool, of which a run takes the first N. Indices are in
 generation order and postures are a random permutation per room, so every subset is
 posture-balanced in expectation; the test and validation people are the same for every N.
@@ -92,11 +92,11 @@ class SeenResult:
 def seen_config(rooms: int, seed: int = 0, noise: bool = True, policy: str = "oracle", arch: str = "resnet18",
                 backbone: str = "resnet10-narrow", stem: str = "half", pool_grid: int = 1, batch: int = 64,
                 lr: float = 2e-3, patience: int = 0) -> TrainConfig:
-    """The seen-rooms recipe (``benchmarks/learning_curve.py``, ``make demo``): the photograph minus
-    the empty-room photograph, the lighter ResNet with the half stem, Adam with a cosine schedule,
+    """The seen-rooms recipe (``experiments/seen-rooms-learning-curve/learning_curve.py``, ``make demo``):
+    the photograph minus the empty-room photograph, the lighter ResNet with the half stem, Adam with a cosine schedule,
     and every batch mixing all ``rooms`` (``scenes_per_step``): with one room per batch, batch norm
     trains on one room's statistics and tests on the running mix of all of them
-    (``benchmarks/learning_ablation.py``: 66 -> 32 cm at 500 people in two rooms).
+    (``experiments/seen-rooms-learning-curve/learning_ablation.py``: 66 -> 32 cm at 500 people in two rooms).
     ``arch`` names a baseline network instead (its own layers; ``backbone`` and ``stem`` unused)."""
     net = NLOSNetConfig(background_subtract=True, backbone=backbone, stem=stem, pool_grid=pool_grid)
     return TrainConfig(name="seen-rooms", seed=seed, batch_size=batch, scenes_per_step=min(rooms, batch), lr=lr,

@@ -14,7 +14,7 @@ albedo 0 (the ambient light it hides; ``train.imaging.albedo_factors``, DESIGN s
 render gives both and a is a clipped linear fit per channel. The rest is searched: a coarse bank
 of renders over the floor (:class:`Bank`) finds the place, a scan over facings per posture the
 direction, and bounded Levenberg-Marquardt (:func:`refine`) all four. The body is a mean build;
-what that costs is measured in ``benchmarks/synthesis_posture.py`` against the person's own body.
+what that costs is measured in ``experiments/unseen-room-fit/synthesis_posture.py`` against the person's own body.
 """
 
 from __future__ import annotations

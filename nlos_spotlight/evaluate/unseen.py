@@ -7,7 +7,7 @@ validation rooms are a third set of rooms (the train dataset's ``val`` split), e
 policy's spot there, so the best weights are chosen on rooms that are neither trained on nor
 reported.
 
-Training is resumable (``checkpoint.pt``); ``benchmarks/unseen_rooms.py`` keeps each policy's
+Training is resumable (``checkpoint.pt``); ``experiments/unseen-rooms/unseen_rooms.py`` keeps each policy's
 scores beside it.
 """
 

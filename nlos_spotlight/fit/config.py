@@ -30,8 +30,8 @@ class FitConfig:
     seed: int = 0
     """Master seed: people, training, sensor noise."""
     burst_frames: int = 16
-    """Frames averaged per still capture (and in the empty-room capture): benchmarks/learning_curve.py
-    --burst, oracle spot, 3,000 people: 1 -> 35.2 cm, 4 -> 27.8, 8 -> 24.9, 16 -> 21.9."""
+    """Frames averaged per still capture (and in the empty-room capture):
+    experiments/seen-rooms-learning-curve/learning_curve.py --burst, oracle spot, 3,000 people: 1 -> 35.2 cm, 4 -> 27.8, 8 -> 24.9, 16 -> 21.9."""
     resolution: int = 32
     """Image width and height, binned pixels."""
     los_vertices: int = 200
@@ -60,7 +60,7 @@ class FitConfig:
     rendered people's own 0.08-0.65, the recipe before it)."""
     epochs: float = 60.0
     """Passes over the training people (copyroom, 3,000 people, held-out six-way posture / error:
-    10 -> 63% / 11.0 cm, 30 -> 74% / 11.6 cm (benchmarks/fit_budget.py), 60 -> 86% / 11.2 cm (the
+    10 -> 63% / 11.0 cm, 30 -> 74% / 11.6 cm (experiments/fit-budget/fit_budget.py), 60 -> 86% / 11.2 cm (the
     fit); 3.4 min on 2 cores beside 21.5 min of rendering)."""
     min_steps: int = 800
     """At least this many optimizer steps of 64 images."""

@@ -43,7 +43,7 @@ def by_snr(values: np.ndarray, landed: np.ndarray) -> list[int]:
 def ranked_oracle(rank: int) -> PolicyFn:
     """The policy 'oracle-RANK': the landed candidate of the RANK-th highest SNR (rank 1 is
     :func:`oracle_spot`). SNR is a proxy for the task; a runner-up spot may read posture better,
-    which only training on it can tell (``benchmarks/unseen_room_fit.py``'s task-chosen spot)."""
+    which only training on it can tell (``experiments/unseen-room-fit/unseen_room_fit.py``'s task-chosen spot)."""
 
     def ranked(scene, scene_dir: Path, rng: np.random.Generator) -> Illumination:
         order = snr_order(scene, scene_dir)
