@@ -249,14 +249,15 @@ def world_test(room: Room, w: dict):
     return dataclasses.replace(t, layers=layers_from(w, "layer_"))
 
 
-def world_conditions(room: Room, cache: Path, magnitudes: list[float], draws: int = 1) -> list:
+def world_conditions(room: Room, cache: Path, magnitudes: list[float], draws: int = 1,
+                     effects: tuple[str, ...] = WORLD_EFFECTS) -> list:
     """(condition, magnitude, test people, variation) of the scan-versus-world rows: ``world-scan``
-    (magnitude 0: the same rendering in the scan itself) and each of :data:`WORLD_EFFECTS`."""
+    (magnitude 0: the same rendering in the scan itself) and each of ``effects`` (of :data:`WORLD_EFFECTS`)."""
     from nlos_spotlight.render.variation import preset
 
     ideal = preset("ideal")
     rows = [("world-scan", 0.0, world_test(room, world_photographs(room, cache, "camera-pose", 0.0)), ideal)]
-    for effect in WORLD_EFFECTS:
+    for effect in effects:
         for m in magnitudes:
             rows.append((effect, m, [world_test(room, world_photographs(room, cache, effect, m, d)) for d in range(draws)],
                          ideal))
@@ -731,7 +732,11 @@ def main(argv=None) -> int:
                                                          "32 x 32 (camera-f32: is 16 x 16 converged?)")
     ap.add_argument("--world-draws", type=int, default=1, help="independent worlds per effect and magnitude, "
                                                                 "their people pooled in one row (default 1)")
+    ap.add_argument("--world-effects", default=",".join(WORLD_EFFECTS), help="which scan-versus-world effects "
+                                                                              "(default all: %(default)s)")
     ap.add_argument("--no-render", action="store_true", help="capture effects only (no people rendered again)")
+    ap.add_argument("--world-only", action="store_true", help="of the people rendered again, only the world "
+                                                               "rows' (capture effects and world rows)")
     ap.add_argument("--cache", default="out/robustness", help="the people rendered again, per room")
     ap.add_argument("--seed", type=int, default=0, help="sensor noise and drift draws")
     ap.add_argument("--noise-draws", type=int, default=1, help="sensor noise and drift draws per person and row, "
@@ -741,6 +746,10 @@ def main(argv=None) -> int:
     ap.add_argument("--out", required=True, help="CSV to write (a JSON of the run beside it)")
     args = ap.parse_args(argv)
     mags = [float(m) for m in args.magnitudes.split(",")]
+    effects = tuple(e.strip() for e in args.world_effects.split(",") if e.strip())
+    if set(effects) - set(WORLD_EFFECTS):
+        raise NlosError(f"--world-effects: unknown {', '.join(sorted(set(effects) - set(WORLD_EFFECTS)))} "
+                        f"(known: {', '.join(WORLD_EFFECTS)})")
     torch.set_num_threads(max(1, os.cpu_count() or 1))
     rows, notes, flags, pairs = [], {}, [], []
     for spec in args.model:
@@ -753,7 +762,7 @@ def main(argv=None) -> int:
             raise NlosError(f"--model: {path} is not a finished room model (no report.json)")
         room = load_room(name, reading, Path(path), args.people)
         people = None
-        if not args.no_render:
+        if not (args.no_render or args.world_only):
             fine = fine_light(room, Path(args.cache)) if args.fine else {}
             people = {**fine, **camera_people(room, Path(args.cache), args.pixel_samples),
                       **camera_photographs(room, Path(args.cache), args.camera_draws), **fit_reproduction(room, Path(args.cache))}
@@ -790,7 +799,8 @@ def main(argv=None) -> int:
         notes[f"{name}:{reading}"]["sensor_noise_median"] = float(np.median(sensor_noise(room, args.seed)))
         flags += flag_rates(room, [float(m) for m in args.flag_multiples.split(",")], args.flag_captures, args.seed)
         world_mags = [float(m) for m in args.world_magnitudes.split(",") if m.strip()]
-        worlds = world_conditions(room, Path(args.cache), world_mags, args.world_draws) if world_mags and not args.no_render else []
+        worlds = world_conditions(room, Path(args.cache), world_mags, args.world_draws, effects) \
+            if world_mags and not args.no_render else []
         outcomes = {}
         for cond, mag, test, var in [*conditions(room, people, mags), *worlds]:
             r = score(room, test, var, args.seed, args.noise_draws)
