@@ -60,7 +60,7 @@ def fmt(ms: tuple[float, float, float], goal: float | None = None) -> str:
 
 def mesh_1000():
     """(TriMesh with ~1000 vertices, camera, description)."""
-    from nlos_spotlight.apps.spotlight import default_camera
+    from nlos_spotlight.scene.setup import default_camera
     from nlos_spotlight.scene.scan import load_scan_z_up
     from nlos_spotlight.render.rays import RayEngine
     from nlos_spotlight.scene.builders import box
@@ -115,7 +115,7 @@ def backends(net, shape, repeats: int, goal: float | None) -> dict[str, float]:
 
 
 def ien_timings(repeats: int) -> None:
-    from nlos_spotlight.apps.spotlight import camera_to_world
+    from nlos_spotlight.render.camera import camera_to_world
     from nlos_spotlight.models.feast import with_self_loops
     from nlos_spotlight.models.ien import IEN, IENConfig
     from nlos_spotlight.data.tensors import graph_inputs

@@ -186,7 +186,8 @@ def cmd_evaluate(args: argparse.Namespace) -> None:
 
 
 def cmd_spotlight(args: argparse.Namespace) -> None:
-    from .apps.spotlight import load_setup, print_result, spotlight, write_json
+    from .apps.spotlight import print_result, spotlight, write_json
+    from .scene.setup import load_setup
     from .console import console
     from .train.checkpoint import load_trained
 

@@ -30,6 +30,7 @@ from typing import Iterator
 import numpy as np
 
 from ..errors import NlosError
+from ..render.color import srgb_to_linear
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
 """Still images read by :func:`read_image`."""
@@ -39,12 +40,6 @@ _PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
 # ---------------------------------------------------------------- pixel values
-
-def srgb_to_linear(v: np.ndarray) -> np.ndarray:
-    """Undo the sRGB transfer curve: encoded values in [0, 1] -> linear values in [0, 1]."""
-    v = np.asarray(v, dtype=np.float64)
-    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
-
 
 def _to_rgb(a: np.ndarray, where: str) -> np.ndarray:
     """(H, W), (H, W, 1..4) -> (H, W, 3): gray replicated, alpha dropped."""

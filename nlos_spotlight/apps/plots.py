@@ -6,33 +6,16 @@ from pathlib import Path
 
 import numpy as np
 
+from ..plotting import pyplot, save_figure
 from ..render.camera import camera_frame, project
 from .predict import Predictions
 from .spotlight import SpotlightResult
 
 
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def _save(fig, path: Path) -> None:
-    import os
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp.png")
-    fig.savefig(tmp, dpi=130)
-    os.replace(tmp, path)
-
-
 def spotlight_figure(r: SpotlightResult, path: Path) -> None:
     """Two panels: the LOS mesh as the camera sees it, and from above; faces colored by IEN
     probability (grey: the projector cannot reach them), the chosen spot starred, the beam drawn."""
-    plt = _plt()
+    plt = pyplot()
     from matplotlib.collections import PolyCollection
     from matplotlib.colors import Normalize
 
@@ -85,14 +68,14 @@ def spotlight_figure(r: SpotlightResult, path: Path) -> None:
     ax1.legend(fontsize=8, loc="best")
     sm = plt.cm.ScalarMappable(norm=norm, cmap=cmap)
     fig.colorbar(sm, ax=[ax0, ax1], shrink=0.8, label="IEN probability (grey: unreachable)")
-    _save(fig, path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
 def trajectory_figure(p: Predictions, path: Path) -> None:
     """Left: positions from above as the camera sees them (raw points, smoothed line). Right: x and
     y against time (or frame), raw and smoothed, with the most probable posture per frame."""
-    plt = _plt()
+    plt = pyplot()
     from ..world.body import POSTURES
 
     t = p.times if p.times is not None else np.arange(len(p), dtype=float)
@@ -123,5 +106,5 @@ def trajectory_figure(p: Predictions, path: Path) -> None:
     ax1.legend(fontsize=8, loc="upper left")
     ax1.set_title("position and posture over time", fontsize=10)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
     plt.close(fig)

@@ -7,14 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+from ..plotting import pyplot
 
 
 def tone_map(img: np.ndarray) -> np.ndarray:
@@ -25,7 +18,7 @@ def tone_map(img: np.ndarray) -> np.ndarray:
 
 def tracking_figure(tracks: list[dict], path: Path) -> None:
     """Fig. 5. ``tracks``: dicts with 'true', 'raw', 'smooth' (F, 2) arrays in m and a 'title'."""
-    plt = _plt()
+    plt = pyplot()
     n = max(1, len(tracks))
     fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 4), squeeze=False)
     for ax, t in zip(axes[0], tracks):
@@ -47,7 +40,7 @@ def tracking_figure(tracks: list[dict], path: Path) -> None:
 
 def policy_figure(panels: list[dict], path: Path) -> None:
     """Fig. 6. ``panels``: dicts with 'name', 'image' (H, W, 3), 'nlos' (H, W, 3), 'spot' (row, col) or None."""
-    plt = _plt()
+    plt = pyplot()
     n = len(panels)
     fig, axes = plt.subplots(2, n, figsize=(2.1 * n, 4.4), squeeze=False)
     for k, p in enumerate(panels):
@@ -68,7 +61,7 @@ def policy_figure(panels: list[dict], path: Path) -> None:
 
 def decimation_figure(ratios, acc: np.ndarray, err: np.ndarray, path: Path) -> None:
     """Fig. 7. ``acc``, ``err``: (seeds, ratios) posture accuracy (%) and mean error (cm)."""
-    plt = _plt()
+    plt = pyplot()
     fig, (a, b) = plt.subplots(1, 2, figsize=(8, 3.2))
     for ax, v, label in ((a, acc, "posture accuracy (%)"), (b, err, "localization error (cm)")):
         m, s = v.mean(0), v.std(0)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..apps.plots import _plt, _save
+from ..plotting import pyplot, save_figure
 from ..evaluate.figures import tone_map
 from ..world.body import POSTURES
 
@@ -21,7 +21,7 @@ def room_3d(room_dir: Path, room: dict, spot: dict, path: Path) -> None:
 
     from ..scene.io import load_scene
 
-    plt = _plt()
+    plt = pyplot()
     scene = load_scene(room_dir)
     mesh, owner = scene.static_mesh()
     tri = mesh.vertices[mesh.faces]
@@ -60,13 +60,13 @@ def room_3d(room_dir: Path, room: dict, spot: dict, path: Path) -> None:
     ax.set_zlabel("z (m)")
     ax.view_init(elev=55, azim=-60)
     ax.legend(fontsize=8, loc="upper left")
-    _save(fig, path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
 def error_map(true_xy: np.ndarray, err_cm: np.ndarray, room: dict, path: Path, cells: int = 6) -> None:
     """Each held-out person's error at their floor position, over the mean error per cell."""
-    plt = _plt()
+    plt = pyplot()
     hr = room["hidden_region"]
     (x0, y0), (x1, y1) = hr["min"], hr["max"]
     aspect = (y1 - y0) / max(x1 - x0, 1e-9)  # the figure takes the region's shape: no tall empty colorbar
@@ -88,13 +88,13 @@ def error_map(true_xy: np.ndarray, err_cm: np.ndarray, room: dict, path: Path, c
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     fig.colorbar(im, ax=ax, label="error (cm)", shrink=float(np.clip(aspect, 0.35, 1.0)))
-    _save(fig, path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
 def confusion(conf: np.ndarray, path: Path) -> None:
     """Row-normalized confusion matrix with counts."""
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 5), layout="constrained")
     frac = conf / np.maximum(conf.sum(axis=1, keepdims=True), 1)
     im = ax.imshow(frac, cmap="Blues", vmin=0, vmax=1)
@@ -107,14 +107,14 @@ def confusion(conf: np.ndarray, path: Path) -> None:
     ax.set_xlabel("predicted")
     ax.set_ylabel("true")
     fig.colorbar(im, ax=ax, label="fraction of the row")
-    _save(fig, path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
 def photos(images: np.ndarray, backgrounds: np.ndarray, path: Path) -> None:
     """(6, H, W, 3) photographs and empty-room photographs: each posture's photograph, and below
     it the difference (the person's light, shown on one shared scale)."""
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(2, len(POSTURES), figsize=(2.2 * len(POSTURES), 4.6), layout="constrained")
     diff = images - backgrounds
     scale = float(np.nanpercentile(np.abs(diff), 99.5)) or 1.0
@@ -129,5 +129,5 @@ def photos(images: np.ndarray, backgrounds: np.ndarray, path: Path) -> None:
         d = diff[j].mean(axis=2)
         axes[1, j].imshow(d, cmap="RdBu_r", vmin=-scale, vmax=scale)
     axes[1, 0].set_ylabel("minus empty room", fontsize=8)
-    _save(fig, path)
+    save_figure(fig, path)
     plt.close(fig)

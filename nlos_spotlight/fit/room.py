@@ -2,7 +2,7 @@
 
 The room comes from a scene directory (its camera, projector, hidden region and materials, each
 overridable by flags) or a bare scan (PLY/OBJ, meters, any up axis). A bare scan is read as
-``nlos spotlight`` reads it (``apps.spotlight.load_setup``: cleaned, turned z up by the smallest
+``nlos spotlight`` reads it (``scene.setup.load_setup``: cleaned, turned z up by the smallest
 rotation, camera and projector from flags or derived defaults), and given:
 
 * **materials**: its face or vertex colors, sRGB-decoded, as diffuse albedo (clipped to
@@ -83,7 +83,7 @@ def parse_region(text: str) -> tuple[np.ndarray, np.ndarray]:
 
 def scan_materials(mesh: TriMesh) -> tuple[Material, TriMesh, str]:
     """Material and mesh (with albedo colors) of a bare scan; the last item says which rule applied."""
-    from ..apps.images import srgb_to_linear
+    from ..render.color import srgb_to_linear
 
     lo, hi = ALBEDO_RANGE
     if mesh.face_colors is not None or mesh.vertex_colors is not None:
@@ -277,7 +277,7 @@ def default_region(scene: Scene, engine, max_side: float = 4.0, spacing: float =
 def room_setup(source: str | Path, resolution: int, camera_position=None, camera_look_at=None,
                projector_position=None, hidden_region: str | None = None, up: str | None = None) -> RoomSetup:
     """The fit's scene from a scene directory or a bare scan (module docstring)."""
-    from ..apps.spotlight import load_setup
+    from ..scene.setup import load_setup
     from ..scene.io import load_scene
     from ..world.calibration import PROJECTOR_INTENSITY, ambient_radiance_per_channel
     from ..world.rooms import RoomConfig

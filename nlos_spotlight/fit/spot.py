@@ -25,12 +25,13 @@ def check_ien_run(checkpoint: str):
 
 def ien_face(models, scene: Scene, los: TriMesh) -> int:
     """The most probable landed candidate of a trained IEN on ``los`` (the room's candidates)."""
-    from ..apps.spotlight import SpotlightSetup, ien_logits, projector_reach
+    from ..lighting.aim import projector_reach
+    from ..lighting.learned import ien_logits
+    from ..render.rays import RayEngine
 
     require_learned(models)
     mesh = scene.static_mesh()[0]
-    setup = SpotlightSetup(Path("room"), "scene", mesh, scene.camera, "scene", scene.projector.position, "scene")
-    reach, _ = projector_reach(setup, los)
+    reach, _ = projector_reach(RayEngine(mesh.vertices, mesh.faces), scene.projector.position, scene.camera, los)
     logits = ien_logits(models, los, scene.camera, scene).double().masked_fill(~torch.as_tensor(reach), float("-inf"))
     if not reach.any():
         raise NlosError("the projector reaches none of the faces the camera sees")
@@ -47,7 +48,7 @@ def scene_dir(out: Path) -> Path:
 
 def spot_record(out: Path, face: int) -> dict:
     """``report.json``'s ``spot``: face, aim point, pan and tilt, with a printable explanation."""
-    from ..apps.spotlight import aim_projector
+    from ..lighting.aim import aim_projector
     from ..render.rays import RayEngine
     from ..scene.io import load_scene
 

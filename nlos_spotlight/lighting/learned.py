@@ -11,11 +11,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import torch
 
 from ..errors import NlosError
 from .base import Illumination, PolicyFn
+
+if TYPE_CHECKING:
+    from ..scene.format import Camera, TriMesh
+    from ..train.checkpoint import TrainedModels
 
 
 @dataclass
@@ -57,3 +62,37 @@ def policy_named(name: str, ien: torch.nn.Module | None = None) -> PolicyFn:
 
 
 __all__ = ["IENPolicy", "policy_named", "require_learned"]
+
+
+def ien_logits(models: "TrainedModels", los: "TriMesh", camera: "Camera", scene=None) -> torch.Tensor:
+    """(F,) IEN logits of the LOS mesh's faces, read in the camera frame with every input its
+    training read (``load_scene_tensors``): for an IEN trained with ``ien_features`` 'region' the
+    mesh in the hidden region's frame, for 'adaptive' or a ``prior_weight`` the Adaptive Lighting
+    score of each face aimed at its centroid (as a room stores its candidates). Those need
+    ``scene`` with a hidden region; a bare mesh gives one line saying so. The one path from a mesh
+    to the IEN's choice (``nlos spotlight``, ``nlos fit --policy ien``)."""
+    from ..data.tensors import face_log_prior, graph_inputs, region_frame
+    from ..render.camera import camera_to_world
+
+    feats = list(models.config.ien_features)
+    weight = float(models.ien.cfg.prior_weight)
+    needs = [f for f in feats if f in ("region", "adaptive")] + (["a face prior"] if weight else [])
+    if needs and (scene is None or scene.hidden_region is None):
+        raise NlosError(f"{models.path}: this IEN reads {', '.join(needs)} of the hidden region; give a scene "
+                        "with a hidden_region (an nlos-scene/1 directory), not a bare mesh")
+    pose = camera_to_world(camera)
+    region = region_frame(scene.hidden_region, pose) if "region" in feats else None
+    scores = None
+    if "adaptive" in feats or weight:
+        from ..lighting.adaptive import adaptive_scores
+
+        scores = adaptive_scores(scene, los.centroids())
+    x, edges = graph_inputs(los, pose, feats, region, scores)
+    if x.shape[1] != models.ien.cfg.in_features:
+        raise NlosError(f"{models.path}: the IEN expects {models.ien.cfg.in_features} input features per vertex, "
+                        f"features {models.config.ien_features} give {x.shape[1]}")
+    device = next(models.ien.parameters()).device
+    prior = face_log_prior(scores).to(device) if weight else None
+    with torch.no_grad():
+        return models.ien(x.to(device), edges.to(device),
+                          torch.as_tensor(los.faces, dtype=torch.long, device=device), prior).cpu()

@@ -56,3 +56,11 @@ def project(cam: Camera, points: np.ndarray) -> np.ndarray:
     out = np.stack([row, col], axis=1)
     out[z <= 0] = np.nan
     return out
+
+
+def camera_to_world(camera: Camera) -> np.ndarray:
+    """(4, 4) pose, columns right, up, backward, position (OpenGL; as stored in datasets)."""
+    fwd, right, up = camera_frame(camera)
+    pose = np.eye(4)
+    pose[:3, 0], pose[:3, 1], pose[:3, 2], pose[:3, 3] = right, up, -fwd, camera.position
+    return pose

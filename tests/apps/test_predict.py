@@ -19,7 +19,8 @@ from PIL import Image
 
 
 from nlos_spotlight.apps.images import (Frames, area_resize, expand_inputs, load_frames,  # noqa: E402
-                                        read_image, read_png16, srgb_to_linear)
+                                        read_image, read_png16)
+from nlos_spotlight.render.color import srgb_to_linear  # noqa: E402
 from nlos_spotlight.apps.predict import predict  # noqa: E402
 from nlos_spotlight.cli import main  # noqa: E402
 from nlos_spotlight.errors import NlosError  # noqa: E402

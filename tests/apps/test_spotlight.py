@@ -11,8 +11,10 @@ import pytest
 import torch
 
 
-from nlos_spotlight.apps.spotlight import (aim_projector, default_camera, ien_logits, load_setup, spotlight,  # noqa: E402
-                                           visible_mesh)
+from nlos_spotlight.apps.spotlight import spotlight, visible_mesh  # noqa: E402
+from nlos_spotlight.lighting.aim import aim_projector  # noqa: E402
+from nlos_spotlight.lighting.learned import ien_logits  # noqa: E402
+from nlos_spotlight.scene.setup import default_camera, load_setup  # noqa: E402
 from nlos_spotlight.cli import main  # noqa: E402
 from nlos_spotlight.errors import NlosError  # noqa: E402
 from nlos_spotlight.render.rays import RayEngine  # noqa: E402
