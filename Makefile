@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup test test-fast demo bench clean
+.PHONY: setup test test-fast demo demo-paper bench clean
 
 $(STAMP): pyproject.toml Makefile
 	$(PYTHON) -m venv $(VENV)
@@ -26,6 +26,10 @@ test-fast: $(STAMP)
 
 demo: $(STAMP)
 	$(BIN)/python -m nlos_spotlight.demo --out out/demo
+
+# the paper's pipeline in procedural rooms (generate -> train -> evaluate: Tables 1-3, Figs. 5-7)
+demo-paper: $(STAMP)
+	$(BIN)/python -m nlos_spotlight.demo --paper --out out/demo-paper
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/render_speed.py

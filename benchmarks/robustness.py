@@ -109,7 +109,7 @@ class Room:
 
 
 def load_room(name: str, reading: str, path: Path, people: int) -> Room:
-    from nlos_spotlight.fit.train import fit_train_config, room_layers, split_period
+    from nlos_spotlight.fit.train import fit_train_config, heldout_positions, room_layers
     from nlos_spotlight.train.checkpoint import load_trained
 
     rep = json.loads((path / "report.json").read_text())
@@ -117,14 +117,13 @@ def load_room(name: str, reading: str, path: Path, people: int) -> Room:
     if people > cfg.heldout:
         raise NlosError(f"--people: {path} holds {cfg.heldout} held-out people, not {people}")
     from nlos_spotlight.data.tensors import load_split
-    from nlos_spotlight.evaluate.seen import split_masks
 
     s, = load_split(path / "data", "train", ["normals"], samples="images")  # as room_split reads it
     if cfg.shadow_samples > 0:  # the model's people hold the light their bodies block
         from nlos_spotlight.fit.train import with_shadow
 
         s = with_shadow(s, path, cfg, int(rep["spot"]["face"]))
-    keep = torch.nonzero(split_masks(s, split_period(s.num_samples, cfg.heldout), cfg.heldout)[2]).flatten()[:people]
+    keep = heldout_positions(s, cfg)[:people]
     test = dataclasses.replace(s.subset(keep), layers=room_layers(path, rep["spot"]["aim"]))
     idx = (keep + cfg.transport_people).tolist()  # dataset indices: image samples follow the full-transport ones
     tc = fit_train_config(cfg, path)

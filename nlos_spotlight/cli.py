@@ -233,7 +233,7 @@ def cmd_fit(args: argparse.Namespace) -> None:
         raise NlosError("fit: give the room (a scan or scene directory) or --config ROOM.yaml with a room")
     changes = {k: getattr(args, k) for k in ("people", "policy", "seed", "burst", "workers", "capture_preset",
                                              "pixel_footprint", "shadow_samples", "shadow_relay", "clothing",
-                                             "world_variation")
+                                             "world_variation", "ceiling_people")
                if getattr(args, k) is not None}
     if "burst" in changes:
         changes["burst_frames"] = changes.pop("burst")
@@ -472,6 +472,8 @@ def build_parser() -> argparse.ArgumentParser:
                                                       "(default 4096); 0: the shadow term left out")
     f.add_argument("--shadow-relay", choices=("per-person", "fixed"), help="the shadow's relay points drawn "
                                                                            "per person (default) or one fixed set")
+    f.add_argument("--ceiling", dest="ceiling_people", type=int, help="held-out people the room's ceiling (an ideal "
+                   "observer's posture accuracy, the position bound) is computed on (default 6; 0: none)")
     f.add_argument("--world-variation", help="calibration error to train under: the people rendered in worlds "
                                              "off the scan by camera pose, projector aim, albedo and geometry "
                                              "(tripod, rough); ideal: in the scan itself (default)")
@@ -480,7 +482,8 @@ def build_parser() -> argparse.ArgumentParser:
                                                                      "dataset (as rendered)")
     f.add_argument("--no-projection", action="store_true", help="train under the capture variation without "
                                                                  "projecting its directions out (an ablation)")
-    f.add_argument("--preset", default="default", help="default, or tiny (tens of people: a first look, tests)")
+    f.add_argument("--preset", default="default", help="default, demo (600 people: make demo), or tiny (tens of "
+                   "people: a first look, tests)")
     f.add_argument("--seed", type=int, help="master seed (default 0)")
     f.add_argument("--resume", action="store_true", help="continue the fit in --out")
     f.add_argument("--people-from", help="a room model of the same room and settings whose rendered people to train "

@@ -1,16 +1,19 @@
-"""``make demo``: the whole system end to end at demo scale, then the report.
+"""``make demo``: the product end to end at demo scale, then its report.
 
 1. render the bundled example scene (one PNG per image component, magnitudes printed);
-2. ``nlos generate demo`` (procedural rooms, bodies, light transport);
-3. ``nlos train demo`` (IEN + ResNet-18 end to end through the stored transport);
-4. ``nlos evaluate`` (every baseline trained and compared on held-out rooms: Tables 1-3, Figs. 5-7);
-5. one room with a thousand people (``nlos generate demo-room``), the seen-rooms recipe trained on
-   about 800 of them and scored on 100 others, noise-free and with the default capture: learning that
-   works, in the setting of a user who scans their own room.
+2. ``nlos fit`` in a real scan (the copy room of ``../shared/data/real-scans``, the camera of
+   ``benchmarks/configs/rooms/copyroom.yaml``) at the ``demo`` preset: 600 synthetic people rendered
+   in the scan, the spot chosen, the network trained, 60 held-out people scored (``report.html``);
+3. ``nlos predict`` on held-out photographs (one person of each posture): what the room model says,
+   beside the truth.
+
+``--paper`` runs the paper's pipeline instead (procedural rooms): ``nlos generate demo``, ``nlos
+train demo`` (IEN + ResNet-18 end to end through the stored transport), ``nlos evaluate`` (Tables
+1-3, Figs. 5-7) and one procedural room with a thousand people (the seen-rooms recipe).
 
 Every step resumes, so an interrupted demo continues where it stopped.
 
-    python -m nlos_spotlight.demo --out out/demo [--seeds N] [--render-only]
+    python -m nlos_spotlight.demo --out out/demo [--paper [--seeds N]] [--render-only]
 """
 
 from __future__ import annotations
@@ -141,20 +144,59 @@ def seen_room(data: Path, out: Path, progress: bool, min_steps: int = 600) -> Pa
     return path
 
 
-def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", default="out/demo")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--seeds", type=int, default=1, help="training seeds per method in the evaluation")
-    ap.add_argument("--render-only", action="store_true", help="only step 1")
-    args = ap.parse_args(argv)
-    out = Path(args.out)
-    t0 = time.perf_counter()
-    console.rule("1/5 render the example scene")
-    render_example(out / "render", args.seed)
-    if args.render_only:
-        return
-    quiet = ["--quiet"] if os.environ.get("CI", "").lower() == "true" else []
+DEMO_ROOM = Path("benchmarks/configs/rooms/copyroom.yaml")
+"""The demo's room: the copy room scan and the camera a user would set up in it (from the repository root)."""
+
+
+def heldout_predictions(model: Path, out: Path, quiet: list[str]) -> Path:
+    """Step 3: ``nlos predict`` on the fit's held-out photographs (the first person of each posture
+    among the held-out people, each a burst averaged as the room model's capture takes it), written as
+    ``.npy`` files a user could hand in; the answers beside the truth in ``predictions.md``."""
+    from .world.body import POSTURES
+
+    hp = np.load(model / "train" / "heldout.npz")
+    out.mkdir(parents=True, exist_ok=True)
+    lines = ["| posture (truth) | nlos predict | position (truth), m | nlos predict, m | error |", "|---|---|---|---|---|"]
+    for p, name in enumerate(POSTURES):
+        if np.isnan(hp["photo_image"][p, 0, 0, 0]):
+            continue
+        np.save(out / f"{name}.npy", hp["photo_image"][p])
+        np.save(out / f"{name}-empty.npy", hp["photo_background"][p])
+        said = out / f"{name}.json"
+        _step(f"3/3 predict: {name}", ["predict", str(model), str(out / f"{name}.npy"), "--background",
+                                       str(out / f"{name}-empty.npy"), "--burst", "1", "--json", str(said), *quiet])
+        frame = json.loads(said.read_text())["frames"][0]
+        guess = np.array([frame["x_m"], frame["y_m"]])
+        line = f"| {name} | {frame['posture']} | " + ("-" if "photo_xy" not in hp.files else
+            f"({hp['photo_xy'][p][0]:+.2f}, {hp['photo_xy'][p][1]:+.2f}) | ({guess[0]:+.2f}, {guess[1]:+.2f}) | "
+            f"{100 * np.linalg.norm(guess - hp['photo_xy'][p]):.0f} cm |")
+        lines.append(line)
+    table = "\n".join(lines)
+    path = out / "predictions.md"
+    path.write_text("# nlos predict on held-out photographs (positions in the room model's frame: along the "
+                    f"camera's view, to its left)\n\n{table}\n")
+    console.print(table)
+    return path
+
+
+def fit_demo(out: Path, seed: int, quiet: list[str]) -> Path:
+    """Step 2: ``nlos fit --preset demo`` in the demo's room; returns the room model directory."""
+    if not DEMO_ROOM.is_file():
+        raise SystemExit(f"demo: {DEMO_ROOM} not found: run make demo from the repository's root")
+    from .config_file import load_room_config
+
+    room = load_room_config(str(DEMO_ROOM))["room"]
+    if not Path(room).is_file():
+        raise SystemExit(f"demo: the copy room scan {room} is missing (expected ../shared/data/real-scans "
+                         "beside the repository); python -m nlos_spotlight.demo --paper runs without it")
+    model = out / "room-model"
+    _step("2/3 fit a room model in the copy room scan", ["fit", "--config", str(DEMO_ROOM), "--preset", "demo",
+          "--out", str(model), "--seed", str(seed), *(["--resume"] if (model / "fit.json").exists() else []), *quiet])
+    return model
+
+
+def paper(out: Path, args, quiet: list[str]) -> None:
+    """``--paper``: the paper's pipeline in procedural rooms, and one room of a thousand people."""
     _step("2/5 generate", ["generate", "demo", "--out", str(out / "data"), "--seed", str(args.seed), *quiet])
     run = out / "run"
     _step("3/5 train", ["train", "demo", "--data", str(out / "data"), "--out", str(run), "--seed", str(args.seed),
@@ -164,9 +206,35 @@ def main(argv=None) -> None:
     _step("5/5 one room, a thousand people", ["generate", "demo-room", "--out", str(out / "room-data"),
                                               "--seed", str(args.seed), *quiet])
     seen = seen_room(out / "room-data", out / "seen-room", progress=not quiet)
-    console.print(f"[bold]demo done in {(time.perf_counter() - t0) / 60:.1f} min[/bold]; report: "
-                  f"{(out / 'report' / 'report.html').resolve()} (and report.md); seen room: {seen.resolve()}")
+    console.print(f"report: {(out / 'report' / 'report.html').resolve()} (and report.md); seen room: {seen.resolve()}")
 
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", default="out/demo")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--paper", action="store_true", help="the paper's pipeline in procedural rooms instead")
+    ap.add_argument("--seeds", type=int, default=1, help="--paper: training seeds per method in the evaluation")
+    ap.add_argument("--render-only", action="store_true", help="only step 1")
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    t0 = time.perf_counter()
+    console.rule("1/3 render the example scene" if not args.paper else "1/5 render the example scene")
+    render_example(out / "render", args.seed)
+    if args.render_only:
+        return
+    quiet = ["--quiet"] if os.environ.get("CI", "").lower() == "true" else []
+    if args.paper:
+        paper(out, args, quiet)
+    else:
+        model = fit_demo(out, args.seed, quiet)
+        said = heldout_predictions(model, out / "heldout", quiet)
+        h = json.loads((model / "report.json").read_text())["heldout"]
+        console.print(f"room model: {h['people']} held-out people, six-way posture {100 * h['posture_accuracy']:.0f}% "
+                      f"(chance 17%), upright/sitting/crouching {100 * h['posture3_accuracy']:.0f}%, position "
+                      f"{h['error_cm']:.1f} cm (the mean answer: {h['mean_answer_cm']:.1f} cm)")
+        console.print(f"report: {(model / 'report.html').resolve()}; predictions: {said.resolve()}")
+    console.print(f"[bold]demo done in {(time.perf_counter() - t0) / 60:.1f} min[/bold]")
 
 if __name__ == "__main__":
     main()

@@ -127,8 +127,8 @@ def score_rooms(net, net_cfg: NLOSNetConfig, sensor, rooms: list[SceneTensors], 
     Besides the scores, ``per_person`` holds arrays over all test people (room, true and predicted
     position (N, 2) in the region frame, true and predicted posture, the posture probabilities
     (N, 6)) and ``photos`` the first test
-    person of each posture as photographed (image and empty-room image (6, H, W, 3), NaN where a
-    posture has no test person; first room). ``variation``: the captures vary as
+    person of each posture as photographed (image and empty-room image (6, H, W, 3) and where the
+    person stands (6, 2), NaN where a posture has no test person; first room). ``variation``: the captures vary as
     ``render.variation`` draws them (None: ideal)."""
     net.eval()
     device = next(net.parameters()).device
@@ -148,7 +148,7 @@ def score_rooms(net, net_cfg: NLOSNetConfig, sensor, rooms: list[SceneTensors], 
                              ("posture_prob", logits.softmax(1))):
                     cols[k].append(v.cpu().numpy())
                 if i == 0:
-                    photos = _first_photos(photos, t.posture[idx], ph)
+                    photos = _first_photos(photos, t.posture[idx], t.target[idx], ph)
     pp = {k: np.concatenate(v) for k, v in cols.items()}
     true, pred = pp["true_posture"], pp["pred_posture"]
     err = np.linalg.norm(pp["pred_xy"] - pp["true_xy"], axis=1)
@@ -160,17 +160,20 @@ def score_rooms(net, net_cfg: NLOSNetConfig, sensor, rooms: list[SceneTensors], 
             "per_person": pp, "photos": photos}
 
 
-def _first_photos(photos: dict | None, posture: torch.Tensor, ph) -> dict:
-    """Keep the first photograph (and empty-room photograph) of each posture seen so far."""
+def _first_photos(photos: dict | None, posture: torch.Tensor, target: torch.Tensor, ph) -> dict:
+    """Keep the first photograph (and empty-room photograph) of each posture seen so far, with
+    where that person stands (``xy``, region frame, m)."""
     h, w = ph.images.shape[1:3]
     if photos is None:
         photos = {"image": np.full((len(POSTURES), h, w, 3), np.nan, np.float32),
-                  "background": np.full((len(POSTURES), h, w, 3), np.nan, np.float32)}
+                  "background": np.full((len(POSTURES), h, w, 3), np.nan, np.float32),
+                  "xy": np.full((len(POSTURES), 2), np.nan, np.float64)}
     bg = ph.background if ph.background is not None else torch.zeros_like(ph.images)
     for j, p in enumerate(posture.cpu().numpy()):
         if np.isnan(photos["image"][p, 0, 0, 0]):
             photos["image"][p] = ph.images[j].cpu().numpy()
             photos["background"][p] = bg[j].cpu().numpy()
+            photos["xy"][p] = target[j].cpu().numpy()
     return photos
 
 

@@ -74,12 +74,16 @@ class FitConfig:
     pose, projector aim, albedo and scan-geometry fields, ``world.mismatch``): 'ideal' renders every
     person in the scan itself (the recipe before it); 'tripod' or 'rough' render the image samples
     under the chosen spot in ``fit.shadow.RELAY_SETS`` drawn worlds a block (``fit/shadow.py``)."""
+    ceiling_people: int = 6
+    """Held-out people the room's ceiling is computed on (``fit/ceiling.py``: an ideal observer's
+    six-way posture and the position Cramer-Rao bound, in the report; about 0.5 min a person on 2
+    cores); 0 leaves it out."""
     project_nuisance: bool = True
     """Under a capture variation, project its directions out of every photograph (``models.nuisance``)
     before the network reads it (False: the network alone learns to ignore the drift)."""
 
     def __post_init__(self) -> None:
-        checks = {"people": 1, "heldout": 1, "transport_people": 1, "burst_frames": 1, "resolution": 8,
+        checks = {"people": 1, "heldout": 1, "ceiling_people": 0, "transport_people": 1, "burst_frames": 1, "resolution": 8,
                   "los_vertices": 8, "person_samples": 1, "body_faces": 100, "min_steps": 0, "workers": 1}
         for k, lo in checks.items():
             v = getattr(self, k)
@@ -141,7 +145,7 @@ MAX_WORKERS = 256
 
 
 BEFORE = {"capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "shadow_samples": 0,
-          "clothing": "dataset", "shadow_relay": "fixed", "world_variation": "ideal"}
+          "clothing": "dataset", "shadow_relay": "fixed", "world_variation": "ideal", "ceiling_people": 0}
 """What a room model fitted before each of these settings existed did (see their docstrings)."""
 
 
@@ -158,5 +162,8 @@ PRESETS = {
                       los_vertices=40, person_samples=96, person_quadrature="mc", body_faces=400, pixel_footprint=2,
                       shadow_samples=128,
                       epochs=2.0,
-                      min_steps=20, workers=1),
+                      min_steps=20, workers=1, ceiling_people=1),
+    # make demo: a real scan fitted in about a quarter of an hour on 2 cores (600 people, 30 epochs)
+    "demo": FitConfig(name="demo", people=600, heldout=60, transport_people=16, epochs=30.0, min_steps=300,
+                      ceiling_people=2),
 }

@@ -53,8 +53,10 @@ def capture_record(out: Path, cfg: FitConfig, face: int) -> dict:
                       "with the room scene's sensor overrides)", "sensor": sensor.to_dict()}
 
 
-def write_fit_report(out: Path, cfg: FitConfig, room: dict, spot: dict, result, timing: dict) -> dict:
-    """Write report.json, the figures and report.html (atomically); returns report.json's content."""
+def write_fit_report(out: Path, cfg: FitConfig, room: dict, spot: dict, result, timing: dict,
+                     ceiling: dict | None = None) -> dict:
+    """Write report.json, the figures and report.html (atomically); returns report.json's content.
+    ``ceiling``: the room's ceiling (``fit/ceiling.py``), or None."""
     from ..data.store import atomic_json
     from . import figures
 
@@ -70,6 +72,7 @@ def write_fit_report(out: Path, cfg: FitConfig, room: dict, spot: dict, result, 
                     "median_error_cm": float(np.median(err_cm)), "mean_answer_cm": result.mean_answer_cm,
                     "confusion": result.confusion, "postures": list(POSTURES)},
         "spot_policies": spot.get("policies"),
+        "ceiling": None if ceiling is None else {k: v for k, v in ceiling.items() if k not in ("key", "indices")},
         "capture": capture_record(out, cfg, spot["face"]),
         "training": {"people": cfg.people, "policy": cfg.policy, "steps": result.steps,
                      "seconds": result.seconds, "network": "resnet10-narrow (half stem), photograph minus "
@@ -100,6 +103,19 @@ def _policy_blocks(sp: dict | None) -> list[Block]:
             Block("table", header=["policy", "face", "SNR / best"], rows=rows)]
 
 
+def _ceiling_blocks(c: dict | None, h: dict) -> list[Block]:
+    """What any reader of these photographs could do, beside what the room model does."""
+    if not c:
+        return []
+    return [Block("p", f"The room's ceiling on {c['people']} of them (fit/ceiling.py): an ideal observer that "
+                       "knows the room and the body and fits place, facing, height and clothing to first order, "
+                       f"and the position Cramer-Rao bound, each reading one burst of {c['burst_frames']} frames."),
+            Block("table", header=["", "six-way posture", "position error"],
+                  rows=[["room model", f"{100 * h['posture_accuracy']:.1f}%", f"{h['error_cm']:.1f} cm (mean)"],
+                        ["ceiling", f"{100 * c['posture_accuracy']:.1f}%",
+                         f"{c['position_crb_cm']:.1f} cm (bound on the RMS error, median person)"]])]
+
+
 def _blocks(r: dict) -> list[Block]:
     h, s, c = r["heldout"], r["spot"], r["capture"]
     rm = r["room"]
@@ -123,6 +139,7 @@ def _blocks(r: dict) -> list[Block]:
                                "mean-position answer"],
               rows=[[f"{100 * h['posture_accuracy']:.1f}%", f"{100 * h['posture3_accuracy']:.1f}%",
                      f"{h['error_cm']:.1f} cm", f"{h['median_error_cm']:.1f} cm", f"{h['mean_answer_cm']:.1f} cm"]]),
+        *_ceiling_blocks(r.get("ceiling"), h),
         Block("image", "Localization error over the hidden region's floor (each held-out person, and the mean "
                        "per cell)", image="figures/error-map.png"),
         Block("image", "Posture confusion matrix (rows: true posture)", image="figures/confusion.png"),

@@ -13,7 +13,9 @@ Steps, each resumable (a rerun with ``--resume`` skips what is finished and cont
 4. **train**: the seen-rooms recipe (``evaluate.seen``) with the fit's capture (a burst of
    ``burst_frames``) and its capture variation (``capture_preset``), best weights kept as
    ``ROOM_MODEL/final.pt``.
-5. **report**: held-out people scored (``report.json``, ``report.html``).
+5. **report**: the room's ceiling (``fit/ceiling.py``: an ideal observer's posture accuracy and the
+   position Cramer-Rao bound on ``ceiling_people`` held-out people), the held-out people scored
+   (``report.json``, ``report.html``).
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ FORMAT = "nlos-room-model/1"
 RESUMABLE_CHANGES = ("workers",)
 """Settings a resumed fit may change: the process count (the output is byte-identical)."""
 TRAINING_ONLY = ("capture_preset", "project_nuisance", "epochs", "min_steps", "workers", "shadow_samples", "shadow_relay",
-                 "clothing", "world_variation")
+                 "clothing", "world_variation", "ceiling_people")
 """Settings that leave the room and its rendered people as they are (``--people-from`` may differ in them)."""
 
 
@@ -315,9 +317,12 @@ def _fit_steps(room: str, out: Path, cfg: FitConfig, flags: dict, record: dict, 
         raise NlosError(f"the trained network used spot {result.spots[0]}, not the chosen {spot['face']}")
     clock.lap("train_s")
     console.rule("5/5 report")
+    from .ceiling import ceiling_record
     from .report import write_fit_report
 
-    report = write_fit_report(out, cfg, setup, spot, result, {**clock.seconds, "total_s": clock.total})
+    ceiling = ceiling_record(out, cfg, spot, progress)
+    clock.lap("ceiling_s")
+    report = write_fit_report(out, cfg, setup, spot, result, {**clock.seconds, "total_s": clock.total}, ceiling)
     clock.lap("report_s")
     h = report["heldout"]
     console.print(f"held-out people: {h['people']}, posture {100 * h['posture_accuracy']:.1f}% (upright/sitting/"

@@ -89,6 +89,25 @@ def with_shadow(s, out: Path, cfg: FitConfig, spot: int):
                                shadow=shadow, shadow_spot=int(spot))
 
 
+def heldout_positions(s, cfg: FitConfig):
+    """(heldout,) int64 positions among the image samples ``s`` of the held-out test people: the one
+    rule (``room_split``'s test people, in order)."""
+    import torch
+
+    from ..evaluate.seen import split_masks
+
+    return torch.nonzero(split_masks(s, split_period(s.num_samples, cfg.heldout), cfg.heldout)[2]).flatten()
+
+
+def heldout_indices(out: Path, cfg: FitConfig) -> list[int]:
+    """Dataset sample indices of a room model's held-out test people (image samples follow the
+    ``transport_people`` full-transport ones)."""
+    from ..data.tensors import load_split
+
+    s, = load_split(Path(out) / "data", "train", ["normals"], samples="images")
+    return (heldout_positions(s, cfg) + cfg.transport_people).tolist()
+
+
 def split_period(samples: int, heldout: int) -> int:
     """Every how many image samples one is a test (and one a validation) person (``split_masks``)."""
     return 10 if samples >= 10 * heldout else max(3, samples // heldout)

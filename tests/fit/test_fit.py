@@ -73,6 +73,23 @@ def test_report_matches_its_contract(fitted):
     assert html.count("data:image/png;base64,") == 4 and "Where to aim the projector" in html
 
 
+def test_report_holds_the_rooms_ceiling(fitted):
+    """The ceiling of TINY's one held-out person: an ideal observer's accuracy (fitting the nuisances
+    never helps it), a finite position bound, and its row in the HTML beside the room model's."""
+    out, report = fitted
+    c = report["ceiling"]
+    assert c["people"] == TINY.ceiling_people == 1 and c["burst_frames"] == TINY.burst_frames
+    assert 0 < c["posture_accuracy"] <= c["posture_accuracy_known"] + 0.02 <= 1.02
+    assert 0 < c["position_crb_cm"] < 1e4
+    stored = json.loads((out / "ceiling.json").read_text())
+    assert stored["posture_accuracy"] == c["posture_accuracy"] and len(stored["indices"]) == 1
+    from nlos_spotlight.fit.train import heldout_indices
+
+    assert stored["indices"] == heldout_indices(out, TINY)[:1]
+    assert "The room&#x27;s ceiling" in (out / "report.html").read_text() or \
+        "The room's ceiling" in (out / "report.html").read_text()
+
+
 def test_report_lays_out_in_a_browser(fitted, check_in_browser):
     """The room model's report as headless Chromium lays it out: the spot table and four figures."""
     got = check_in_browser(fitted[0] / "report.html")

@@ -1,0 +1,154 @@
+"""The room's ceiling: what any reader of the room model's photographs could do (``report.json``'s ``ceiling``).
+
+For the first ``ceiling_people`` held-out people, under the chosen spot and the fit's capture (a
+burst of ``burst_frames``), the person's light (``nlos`` + ``nlos_ambient``) is rendered in each of
+the six postures with everything else the same, and its derivatives with respect to seven nuisances
+(floor x and y, facing, height, the three clothing albedo channels; central differences of
+:data:`STEPS`). Whitened by the capture's noise (``render.sensor.noise_variance_dn``, metered on
+the person-free frame as the study ``experiments/physics-bounds`` does):
+
+* six-way posture of an ideal observer (``evaluate.ideal_observer``): ``known`` (everything but the
+  posture known) and ``nuisance`` (the nuisances fitted to first order): the accuracy no network
+  reading the photograph can pass;
+* the position Cramer-Rao bound of the person's own posture (``evaluate.crb``: the RMS error of
+  any unbiased estimator that knows everything but x and y).
+
+Both are upper bounds on what the room model can reach: they know the body's build and pose
+variant, the room exactly, and read one capture without the empty-room photograph's noise or the
+capture's drift. Cost: 6 x 15 renders a person (about 0.5 min each on 2 cores at the fit settings).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from .config import FitConfig
+
+STEPS = {"x": 0.01, "y": 0.01, "facing_deg": 2.0, "height_m": 0.01, "albedo_r": 0.01, "albedo_g": 0.01,
+         "albedo_b": 0.01}
+"""Nuisance -> central-difference step (m, degrees or albedo); x and y come first (the CRB's columns)."""
+DRAWS = 4000
+"""Monte Carlo draws of the ideal observer per person and posture."""
+
+
+def perturbed(params, t: np.ndarray, name: str, h: float):
+    """(body parameters, translation) with nuisance ``name`` moved by ``h``."""
+    from ..world.body import HEIGHT_RANGE_M
+
+    t = t.copy()
+    if name in ("x", "y"):
+        t["xy".index(name)] += h
+        return params, t
+    if name.startswith("albedo_"):
+        a = np.array(params.albedo, float)
+        a["rgb".index(name[-1])] += h
+        return dataclasses.replace(params, albedo=np.clip(a, 0, 1)), t
+    if name == "height_m":
+        lo, hi = HEIGHT_RANGE_M
+        return dataclasses.replace(params, height_m=float(np.clip(params.height_m + h, lo, hi))), t
+    return dataclasses.replace(params, **{name: getattr(params, name) + h}), t
+
+
+def person_light(r, y, params, t: np.ndarray, dcfg) -> torch.Tensor:
+    """(H * W * 3,) the person's light (the terms that depend on the person), float64 radiance."""
+    from ..evaluate.crb import PERSON
+    from ..render.person import Person
+    from ..world.body import posed_body
+
+    body = posed_body(params, target_faces=dcfg.body_faces)
+    person = Person.from_mesh(body, params.albedo, dcfg.person_samples, dcfg.person_quadrature)
+    return r.render(y, person, translation=t, components=PERSON).image.double().reshape(-1)
+
+
+def jacobian(r, y, params, t: np.ndarray, dcfg) -> torch.Tensor:
+    """(H * W * 3, 7) derivatives of the person's light with respect to :data:`STEPS`' nuisances."""
+    cols = []
+    for name, h in STEPS.items():
+        plus, minus = (person_light(r, y, *perturbed(params, t, name, s), dcfg) for s in (h, -h))
+        cols.append((plus - minus) / (2 * h))
+    return torch.stack(cols, 1)
+
+
+def crb_m(jac_xy: torch.Tensor, frames: int) -> float:
+    """sqrt(trace(J^-1)) (m) from whitened one-frame derivatives (P, 2) and a burst of ``frames``."""
+    fisher = frames * (jac_xy.T @ jac_xy)
+    if float(torch.linalg.det(fisher)) <= 0:
+        return float("inf")
+    return float(torch.sqrt(torch.trace(torch.linalg.inv(fisher))))
+
+
+def room_ceiling(out: Path, cfg: FitConfig, spot: dict, progress: bool = True) -> dict:
+    """The ceiling of a fitted room (module docstring) over its first ``cfg.ceiling_people`` held-out people."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from ..console import QUIET, console
+    from ..evaluate.ideal_observer import ideal_observer
+    from ..render.sensor import SensorConfig, auto_exposure, dn_per_radiance, noise_variance_dn
+    from ..render.settings import RenderSettings
+    from ..render.transport import Renderer
+    from ..world.body import POSTURES
+    from .run import room_builder
+    from .train import capture_overrides, heldout_indices
+
+    builder, dcfg = room_builder(out, cfg)
+    room, specs = builder._scan_people()
+    settings = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
+                              pixel_footprint=dcfg.pixel_footprint, spot_samples=dcfg.spot_samples,
+                              person_samples=dcfg.person_samples, device="cpu")
+    r = Renderer(room, settings, aim_points=np.asarray(spot["aim"], np.float64)[None])
+    y = r.spot_vector(0)
+    sensor = SensorConfig.at(r.shape, capture_overrides(out, cfg), {"burst_frames": 1})  # one frame's noise
+    static = r.render(y, None, components=("direct", "ambient")).image.double()
+    k = dn_per_radiance(auto_exposure(static, sensor), sensor)
+    people = heldout_indices(out, cfg)[:cfg.ceiling_people]
+    known, fitted, crbs = [], [], []
+    columns = (TextColumn("ceiling"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
+    with Progress(*columns, console=console, disable=QUIET or not progress) as bar:
+        task = bar.add_task("ceiling", total=len(people))
+        for i in people:
+            spec = specs[i]
+            base, t = spec["params"], np.array([*spec["position"], room.hidden_region.floor_z])
+            per = {q: dataclasses.replace(base, posture=q) for q in POSTURES}
+            mu = {q: person_light(r, y, per[q], t, dcfg) for q in POSTURES}
+            jac = {q: jacobian(r, y, per[q], t, dcfg) for q in POSTURES}
+            sigma = noise_variance_dn(((static.reshape(-1) + mu[base.posture]) * k).clamp(min=0), sensor).sqrt() / k
+            means = torch.stack([mu[q] / sigma for q in POSTURES])
+            jacs = torch.stack([jac[q] / sigma[:, None] for q in POSTURES])
+            obs = ideal_observer(means, jacs, frames=cfg.burst_frames, draws=DRAWS, seed=cfg.seed + i)
+            known.append(obs.accuracy[0])
+            fitted.append(obs.accuracy[1])
+            crbs.append(crb_m(jac[base.posture][:, :2] / sigma[:, None], cfg.burst_frames))
+            bar.advance(task)
+    return {"people": len(people), "burst_frames": cfg.burst_frames,
+            "posture_accuracy_known": float(np.mean(known)), "posture_accuracy": float(np.mean(fitted)),
+            "position_crb_cm": float(100 * np.median(crbs)), "position_crb_cm_mean": float(100 * np.mean(crbs)),
+            "indices": [int(i) for i in people]}
+
+
+def ceiling_record(out: Path, cfg: FitConfig, spot: dict, progress: bool = True) -> dict | None:
+    """``ROOM_MODEL/ceiling.json`` (computed once, atomically, for this spot and people count), None if
+    ``ceiling_people`` is 0."""
+    from ..data.store import atomic_json
+
+    if cfg.ceiling_people == 0:
+        return None
+    path = Path(out) / "ceiling.json"
+    key = {"face": int(spot["face"]), "people": cfg.ceiling_people, "burst_frames": cfg.burst_frames}
+    if path.exists():
+        try:
+            got = json.loads(path.read_text())
+            if got.get("key") == key:
+                return got
+        except (OSError, json.JSONDecodeError):
+            pass  # damaged: computed again
+    got = {"key": key, **room_ceiling(out, cfg, spot, progress)}
+    atomic_json(path, got)
+    return got
+
+
+__all__ = ["STEPS", "ceiling_record", "room_ceiling"]

@@ -1,0 +1,56 @@
+"""The room's ceiling (``fit/ceiling.py``): the position bound against closed forms and the
+independent Fisher information of ``evaluate.crb``, and the nuisance steps."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from nlos_spotlight.fit.ceiling import STEPS, crb_m, perturbed
+from nlos_spotlight.render.sensor import SensorConfig, noise_variance_dn
+from nlos_spotlight.world.body import BodyParams
+
+
+def test_bound_of_orthogonal_derivatives_is_the_closed_form():
+    """Whitened derivatives along x with norm a and along y with norm b, a burst of f frames:
+    J = f diag(a^2, b^2), so sqrt(trace(J^-1)) = sqrt(1 / (f a^2) + 1 / (f b^2))."""
+    g = torch.zeros(50, 2, dtype=torch.float64)
+    g[:20, 0] = 3.0 / np.sqrt(20)  # norm 3
+    g[20:, 1] = 0.5 / np.sqrt(30)  # norm 0.5
+    assert crb_m(g, 16) == pytest.approx(np.sqrt(1 / (16 * 9) + 1 / (16 * 0.25)), rel=1e-12)
+    g[:, 1] = g[:, 0]  # x and y move the image alike: no bound
+    assert crb_m(g, 16) == float("inf")
+
+
+def test_bound_equals_the_fisher_information_of_the_sensor_model():
+    """The ceiling's whitened form (noise of one frame, a burst of f) against ``evaluate.crb.fisher_crb``
+    (the burst's noise, DN): the same bound for a random image and derivative."""
+    from nlos_spotlight.evaluate.crb import fisher_crb
+
+    gen = torch.Generator().manual_seed(0)
+    h, w = 6, 5
+    mean = torch.rand(h, w, 3, generator=gen, dtype=torch.float64) * 0.02
+    jac = torch.randn(h, w, 3, 2, generator=gen, dtype=torch.float64) * 0.01
+    exposure, frames = 0.05, 16
+    burst = SensorConfig.at((h, w), {"burst_frames": frames})
+    one = SensorConfig.at((h, w), {"burst_frames": 1})
+    from nlos_spotlight.render.sensor import dn_per_radiance
+
+    k = dn_per_radiance(exposure, one)
+    assert float((mean * k).max()) < one.full_scale_dn  # nothing clips: fisher_crb keeps every pixel
+    sigma = noise_variance_dn((mean * k).reshape(-1), one).sqrt() / k
+    ours = crb_m(jac.reshape(-1, 2) / sigma[:, None], frames)
+    assert ours == pytest.approx(fisher_crb(jac, mean, exposure, burst), rel=1e-9)
+
+
+def test_each_step_moves_only_its_nuisance():
+    base = BodyParams(posture="standing", facing_deg=30.0, height_m=1.7, albedo=np.array([0.4, 0.5, 0.6]))
+    t = np.array([1.0, 2.0, 0.0])
+    for name, h in STEPS.items():
+        p, tt = perturbed(base, t, name, h)
+        moved = {k for k in ("facing_deg", "height_m") if getattr(p, k) != getattr(base, k)}
+        moved |= {f"albedo_{c}" for c, a, b in zip("rgb", p.albedo, base.albedo) if a != b}
+        moved |= {c for c, a, b in zip("xy", tt, t) if a != b}
+        assert moved == {name}, name
+        assert (p.posture, p.pose_seed, p.weight) == (base.posture, base.pose_seed, base.weight)
