@@ -148,7 +148,7 @@ DEMO_ROOM = Path("benchmarks/configs/rooms/copyroom.yaml")
 """The demo's room: the copy room scan and the camera a user would set up in it (from the repository root)."""
 
 
-def heldout_predictions(model: Path, out: Path, quiet: list[str]) -> Path:
+def heldout_predictions(model: Path, out: Path) -> Path:
     """Step 3: ``nlos predict`` on the fit's held-out photographs (the first person of each posture
     among the held-out people, each a burst averaged as the room model's capture takes it), written as
     ``.npy`` files a user could hand in; the answers beside the truth in ``predictions.md``."""
@@ -164,7 +164,7 @@ def heldout_predictions(model: Path, out: Path, quiet: list[str]) -> Path:
         np.save(out / f"{name}-empty.npy", hp["photo_background"][p])
         said = out / f"{name}.json"
         _step(f"3/3 predict: {name}", ["predict", str(model), str(out / f"{name}.npy"), "--background",
-                                       str(out / f"{name}-empty.npy"), "--burst", "1", "--json", str(said), *quiet])
+                                       str(out / f"{name}-empty.npy"), "--burst", "1", "--json", str(said)])
         frame = json.loads(said.read_text())["frames"][0]
         guess = np.array([frame["x_m"], frame["y_m"]])
         line = f"| {name} | {frame['posture']} | " + ("-" if "photo_xy" not in hp.files else
@@ -228,7 +228,7 @@ def main(argv=None) -> None:
         paper(out, args, quiet)
     else:
         model = fit_demo(out, args.seed, quiet)
-        said = heldout_predictions(model, out / "heldout", quiet)
+        said = heldout_predictions(model, out / "heldout")
         h = json.loads((model / "report.json").read_text())["heldout"]
         console.print(f"room model: {h['people']} held-out people, six-way posture {100 * h['posture_accuracy']:.0f}% "
                       f"(chance 17%), upright/sitting/crouching {100 * h['posture3_accuracy']:.0f}%, position "
