@@ -73,7 +73,9 @@ class FitConfig:
     """Scan-versus-world calibration error the room model is trained to survive (the preset's camera
     pose, projector aim, albedo and scan-geometry fields, ``world.mismatch``): 'ideal' renders every
     person in the scan itself (the recipe before it); 'tripod' or 'rough' render the image samples
-    under the chosen spot in ``fit.shadow.RELAY_SETS`` drawn worlds a block (``fit/shadow.py``)."""
+    under the chosen spot in ``fit.shadow.RELAY_SETS`` drawn worlds a block (``fit/shadow.py``). Measured
+    in the copy room at 1,000 people, 'tripod' against 'ideal': posture better in some worlds, worse
+    with jittered walls, position 2-6 cm worse everywhere (docs/results.md): not the default."""
     ceiling_people: int = 6
     """Held-out people the room's ceiling is computed on (``fit/ceiling.py``: an ideal observer's
     six-way posture and the position Cramer-Rao bound, in the report; about 0.5 min a person on 2
