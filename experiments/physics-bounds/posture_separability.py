@@ -49,49 +49,20 @@ from nlos_spotlight.data.config import DatasetConfig
 from nlos_spotlight.data.generate import plan
 from nlos_spotlight.evaluate.crb import PERSON
 from nlos_spotlight.evaluate.ideal_observer import ideal_observer
+from nlos_spotlight.fit.ceiling import jacobian  # the nuisance steps and derivatives of the fit's ceiling
 from nlos_spotlight.lighting.snr import candidate_snr
 from nlos_spotlight.render.person import Person
 from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.render.sensor import auto_exposure, dn_per_radiance, noise_variance_dn
 from nlos_spotlight.render.transport import Renderer
-from nlos_spotlight.world.body import HEIGHT_RANGE_M, POSTURES, posed_body
+from nlos_spotlight.world.body import POSTURES, posed_body
 from position_crb import room_renderer, seen_test_specs  # this folder: run as a script
-
-STEPS = {"x": 0.01, "y": 0.01, "facing_deg": 2.0, "height_m": 0.01, "albedo_r": 0.01, "albedo_g": 0.01,
-         "albedo_b": 0.01}
-"""Nuisance -> central-difference step (m, degrees or albedo)."""
-
 
 def light(r: Renderer, y: torch.Tensor, params, t: np.ndarray, cfg: DatasetConfig) -> torch.Tensor:
     """(H, W, 3) the person's light (the image terms that depend on the person), radiance units."""
     body = posed_body(params, target_faces=cfg.body_faces)
     person = Person.from_mesh(body, params.albedo, cfg.person_samples, cfg.person_quadrature)
     return r.render(y, person, translation=t, components=PERSON).image.double()
-
-
-def perturbed(params, t: np.ndarray, name: str, h: float):
-    """(params, translation) with nuisance ``name`` moved by ``h``."""
-    t = t.copy()
-    if name in ("x", "y"):
-        t["xy".index(name)] += h
-        return params, t
-    if name.startswith("albedo_"):
-        a = np.array(params.albedo, float)
-        a["rgb".index(name[-1])] += h
-        return dataclasses.replace(params, albedo=np.clip(a, 0, 1)), t
-    if name == "height_m":
-        lo, hi = HEIGHT_RANGE_M
-        return dataclasses.replace(params, height_m=float(np.clip(params.height_m + h, lo, hi))), t
-    return dataclasses.replace(params, **{name: getattr(params, name) + h}), t
-
-
-def jacobian(r, y, params, t, cfg) -> torch.Tensor:
-    """(H*W*3, 7) derivatives of the person's light with respect to :data:`STEPS`' nuisances."""
-    cols = []
-    for name, h in STEPS.items():
-        plus, minus = (light(r, y, *perturbed(params, t, name, s), cfg) for s in (h, -h))
-        cols.append(((plus - minus) / (2 * h)).reshape(-1))
-    return torch.stack(cols, 1)
 
 
 def distances(delta: torch.Tensor, jac: torch.Tensor, sigma: torch.Tensor) -> tuple[float, float]:
