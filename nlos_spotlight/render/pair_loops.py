@@ -16,15 +16,25 @@ torch kernels stay the differentiable path and the reference these are tested ag
 
 The order of operations follows ``render/rays.pair_rays`` and ``render/kernels.pair_geometry``
 so that both build the same rays; sums run in float64 and are returned in the caller's dtype.
+
+The loops run on numba's ``workqueue`` threading layer unless ``NUMBA_THREADING_LAYER`` says
+otherwise: its idle threads sleep. Under the ``omp`` layer (numba's first choice) the idle OpenMP
+threads spin between the hundred-odd loop calls of a person, and two rendering processes on two
+cores (``nlos fit``'s workers) ran 3.1 times slower each than one alone: 1.40 against 0.45 s a
+person (``benchmarks/render_throughput.py`` measures both layers).
 """
 
 from __future__ import annotations
 
 import math
+import os
 
 import numba
 import numpy as np
 from numba import njit, prange
+
+if "NUMBA_THREADING_LAYER" not in os.environ:  # before the first parallel loop runs (module docstring)
+    numba.config.THREADING_LAYER = "workqueue"
 
 from .brdf import COS_EPS
 from .rays import EPS

@@ -40,6 +40,9 @@ class RenderSettings:
     """On CPU, no-gradient calls sum the per-person pairs in compiled loops (``render/pair_loops.py``)."""
     device: str = "auto"
     """'cpu', 'cuda' or 'auto' (cuda when available)."""
+    rays: str = "auto"
+    """Engine of the per-person occlusion rays: 'embree' (embreex, one ray at a time: the reference),
+    'drjit' (Mitsuba 3's array ray tests: all cores, or OptiX on the GPU) or 'auto' (drjit where it runs)."""
 
 
 RENDER_PRESETS = {

@@ -33,7 +33,7 @@ from .brdf import brdf
 from .fused import glossy_lobe
 from .kernels import pair_geometry
 from .person import Person, monte_carlo
-from .rays import EPS, RayEngine
+from .rays import EPS
 
 if TYPE_CHECKING:
     from .transport import Renderer
@@ -78,7 +78,7 @@ class SpotShadow:
         r, h = self.r, self.h
         t_np = t.detach().cpu().numpy().astype(np.float64)
         verts = person.mesh.vertices + t_np
-        body = RayEngine(verts, person.mesh.faces)
+        body = r.body_rays(verts, person.mesh.faces)
         lo, hi = r._t(verts.min(0) - 4 * EPS), r._t(verts.max(0) + 4 * EPS)
         idx = r._active(y)
         src = {k: v[idx] for k, v in r.spot_pts.items()}
@@ -104,7 +104,7 @@ class SpotShadow:
         hk = {k: v[keep] for k, v in h.items()}
         # first leg: irradiance at the kept h, and its part the body blocks
         n1 = need1[:, keep]
-        vs = r._visible(r.static.engine, src["pos"], src["normal"], hk["pos"], hk["normal"], n1)
+        vs = r._visible(r.rays, src["pos"], src["normal"], hk["pos"], hk["normal"], n1)
         f = brdf(src["normal"].unsqueeze(1), to_proj.unsqueeze(1), geo1.dir_ab[:, keep], src["kd"].unsqueeze(1),
                  src["ks"].unsqueeze(1), src["alpha"].unsqueeze(1))
         c = f * (geo1.g[:, keep] * vs).unsqueeze(-1) * w.unsqueeze(1)  # (S, K, 3)
@@ -147,7 +147,7 @@ class SpotShadow:
         for sl in self._chunks(rows):
             geo = pair_geometry(r.recv_t.pts["pos"][sl], r.recv_t.pts["normal"][sl], hp, hn)
             need = geo.cos_a * cos_c[sl] > 0
-            parts.append(r._visible(r.static.engine, r.recv_t.pts["pos"][sl], r.recv_t.pts["normal"][sl], hp, hn,
+            parts.append(r._visible(r.rays, r.recv_t.pts["pos"][sl], r.recv_t.pts["normal"][sl], hp, hn,
                                     need, geo) > 0)
         self._vis[g] = torch.cat(parts)
         return self._vis[g].to(r.dtype)
@@ -182,7 +182,7 @@ class SpotShadow:
         # rays only where some light is lost: h with blocked light, or a leg through the body's box
         cross = need & cross
         need = need & ((l_blk.sum((0, 2)) > 0).unsqueeze(0) | cross)
-        vs = r._visible(r.static.engine, rp, rn, hk["pos"], hk["normal"], need, geo) if vs_static is None \
+        vs = r._visible(r.rays, rp, rn, hk["pos"], hk["normal"], need, geo) if vs_static is None \
             else vs_static * need
         wgt = geo.g * vs * ak
         lost = wgt * self._body_blocks(body, rp, rn, hk["pos"], hk["normal"], cross & (vs > 0))
@@ -197,6 +197,6 @@ class SpotShadow:
                                                          + two_sided(lost[gl] * spec, side[gl], l_rest))
         return rad
 
-    def _body_blocks(self, body: RayEngine, pa, na, pb, nb, sel: torch.Tensor) -> torch.Tensor:
+    def _body_blocks(self, body, pa, na, pb, nb, sel: torch.Tensor) -> torch.Tensor:
         """(Na, Nb) 1 where the body blocks the pair's segment (rays only for ``sel``), else 0."""
         return sel.to(self.r.dtype) - self.r._visible(body, pa, na, pb, nb, sel)

@@ -35,7 +35,7 @@ from .camera import pixel_rays
 from .kernels import pair_geometry
 from . import pair_loops
 from .person import Person, as_translation
-from .rays import SceneRays, pair_rays
+from .rays import RayEngine, SceneRays, occlusion_engine, pair_rays
 from .spot import cone_directions, spot_profile
 from .settings import RENDER_PRESETS, RenderSettings  # noqa: F401  (re-exported beside the renderer)
 from .surface import StaticSurfaces, SurfacePoints
@@ -106,6 +106,7 @@ class Renderer:
         self.dtype = getattr(torch, s.dtype)
         self.kernels = pair_kernels(s.fuse)
         self.static = StaticSurfaces(scene)
+        self.rays = occlusion_engine(self.static.engine, s.rays, self.device.type)  # per-person visibility
         self.aim_points = self.static.mesh.centroids() if aim_points is None else np.atleast_2d(aim_points)
         self.num_spots = len(self.aim_points)
         cam = scene.camera
@@ -322,7 +323,7 @@ class Renderer:
             lit = (src["normal"] * self.spot_to_proj[idx]).sum(-1, keepdim=True)
             seen = (r.pts["normal"][sl] * r.to_cam[sl]).sum(-1)
             need = (geo.cos_a * lit > 0) & (geo.cos_b * seen > 0)
-            vis = self._visible(self.static.engine, src["pos"], src["normal"], r.pts["pos"][sl],
+            vis = self._visible(self.rays, src["pos"], src["normal"], r.pts["pos"][sl],
                                 r.pts["normal"][sl], need, geo)
             f_src = brdf(src["normal"].unsqueeze(1), self.spot_to_proj[idx].unsqueeze(1), geo.dir_ab,
                          src["kd"].unsqueeze(1), src["ks"].unsqueeze(1), src["alpha"].unsqueeze(1))
@@ -344,6 +345,14 @@ class Renderer:
             occ = rays.occluded_rays(*pair_rays(pa, na, pb, nb, *dirs, need))
             vis[need] = self._t(~occ)
         return vis
+
+    def body_rays(self, vertices: np.ndarray, faces: np.ndarray):
+        """An occlusion engine over a body alone, of the renderer's ray backend."""
+        if self.rays is self.static.engine:
+            return RayEngine(vertices, faces)
+        from .rays_drjit import DrJitRays
+
+        return DrJitRays(vertices, faces, self.rays.device, self.rays.threads)
 
     def _loops(self, *tensors) -> bool:
         """Sum pairs in compiled loops: CPU, enabled, and no gradient asked of these tensors."""
@@ -413,7 +422,7 @@ class Renderer:
 
     def _one_person(self, y, person: Person, pts, t, hidden, want) -> dict[str, torch.Tensor]:
         t_np = t.detach().cpu().numpy().astype(np.float64)
-        rays = SceneRays(self.static.engine, person.translated_mesh(t_np))
+        rays = SceneRays(self.rays, person.translated_mesh(t_np))
         o = pts["pos"] + t
         radiance = []
         if "nlos" in want:
@@ -494,7 +503,7 @@ class Renderer:
                 raise ValueError(f"spots: expected distinct candidate indices in 0..{self.num_spots - 1}")
         t = as_translation(translation, 1, self.device, self.dtype)[0]
         pts = {k: self._t(getattr(person, k)) for k in ("pos", "normal", "area", "albedo")}
-        rays = SceneRays(self.static.engine, person.translated_mesh(t.detach().cpu().numpy()))
+        rays = SceneRays(self.rays, person.translated_mesh(t.detach().cpu().numpy()))
         o = pts["pos"] + t
         lf, lb = self._person_radiosity(None, person, pts, o, rays, per_spot=True, spots=spots)
         fronts, backs = [lf], [lb]

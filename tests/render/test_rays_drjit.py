@@ -1,0 +1,80 @@
+"""The Dr.Jit occlusion engine (``render/rays_drjit.py``) against embreex, the reference engine."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from nlos_spotlight.render import rays_drjit
+from nlos_spotlight.render.rays import RayEngine, SceneRays, occlusion_engine
+
+pytestmark = pytest.mark.skipif(not rays_drjit.available("cpu"), reason="Mitsuba 3 (LLVM) not available")
+
+
+def _box(lo, hi):
+    """A closed axis-aligned box as 12 triangles."""
+    v = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])], float)
+    f = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                  [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    return v, f
+
+
+def test_occlusion_matches_embree_on_random_segments():
+    """Segments between random points in and around two boxes: the same answer from both engines,
+    and the closed form (a segment between two points outside a convex box is blocked iff the
+    slab test says it crosses it) for the segments that miss the second box."""
+    v1, f1 = _box([-1, -1, -1], [1, 1, 1])
+    rng = np.random.default_rng(3)
+    a, b = rng.uniform(-3, 3, (20000, 2, 3)).transpose(1, 0, 2)
+    ref = RayEngine(v1, f1).occluded(a, b)
+    got = rays_drjit.DrJitRays(v1, f1, "cpu", threads=1).occluded(a, b)
+    assert 0.2 < ref.mean() < 0.9  # both outcomes are common
+    assert np.mean(got != ref) <= 1e-4
+    outside = (np.abs(a) > 1).any(1) & (np.abs(b) > 1).any(1)
+    d = b - a
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0, t1 = (-1 - a) / d, (1 - a) / d
+    near = np.nanmax(np.minimum(t0, t1), 1).clip(min=0)
+    far = np.nanmin(np.maximum(t0, t1), 1).clip(max=1)
+    crosses = near < far
+    clear = outside & (np.abs(far - near) > 1e-3)  # not grazing an edge
+    assert np.array_equal(got[clear], crosses[clear])
+
+
+def test_with_body_sees_both_meshes():
+    """The room's mesh instanced beside a body blocks what either blocks, as one embreex BVH of both."""
+    v1, f1 = _box([-1, -1, -1], [1, 1, 1])
+    v2, f2 = _box([2, -0.5, -0.5], [3, 0.5, 0.5])
+
+    class Body:
+        vertices, faces = v2, f2
+
+    rng = np.random.default_rng(4)
+    a = rng.uniform(-4, 5, (20000, 3))
+    b = rng.uniform(-4, 5, (20000, 3))
+    joined_ref = RayEngine(np.concatenate([v1, v2]), np.concatenate([f1, f2 + len(v1)])).occluded(a, b)
+    engine = occlusion_engine(RayEngine(v1, f1), "drjit", "cpu")
+    got = SceneRays(engine, Body()).occluded(a, b)
+    alone = engine.occluded(a, b)
+    assert np.mean(got != joined_ref) <= 1e-4
+    assert (got & ~alone).sum() > 100  # the body blocks segments the room does not
+
+
+def test_renderer_images_equal_with_either_engine(glossy_corner_pair):
+    """A person's images (every candidate, flash-free) through either engine: within 1e-4."""
+    base, drjit_r, person = glossy_corner_pair(300, "float64", pair_loops=True, rays="drjit")
+    assert isinstance(drjit_r.rays, rays_drjit.DrJitRays) and isinstance(base.rays, RayEngine)
+    with torch.no_grad():
+        want = base.transport_images(person, [0.05, -0.03], nlos_ambient=True)
+        got = drjit_r.transport_images(person, [0.05, -0.03], nlos_ambient=True)
+    assert float(want.abs().max()) > 0
+    assert float((got - want).norm() / want.norm()) < 1e-4
+
+
+def test_auto_keeps_embree_on_cpu():
+    v, f = _box([-1, -1, -1], [1, 1, 1])
+    engine = RayEngine(v, f)
+    assert occlusion_engine(engine, "auto", "cpu") is engine
+    with pytest.raises(ValueError, match="rays"):
+        occlusion_engine(engine, "optix", "cpu")
