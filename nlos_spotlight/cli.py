@@ -115,7 +115,8 @@ def cmd_generate(args: argparse.Namespace) -> None:
         if args.seed < 0:
             raise NlosError(f"--seed: expected a non-negative integer, got {args.seed}")
         cfg.seed = args.seed
-    rec = generate(cfg, output_dir(args.out, "--out"), _shard(args.shard), progress=not args.quiet, fuse=args.fuse)
+    rec = generate(cfg, output_dir(args.out, "--out"), _shard(args.shard), progress=not args.quiet, fuse=args.fuse,
+                   device=args.device)
     manifest = Path(args.out) / "manifest.json"
     state = f"complete: {manifest}" if manifest.exists() else "other shards pending (manifest written by the last)"
     console.print(f"shard {rec['shard']}: {len(rec['scenes'])} scenes in {rec['seconds']:.1f} s; dataset {state}")
@@ -233,7 +234,7 @@ def cmd_fit(args: argparse.Namespace) -> None:
         raise NlosError("fit: give the room (a scan or scene directory) or --config ROOM.yaml with a room")
     changes = {k: getattr(args, k) for k in ("people", "policy", "seed", "burst", "workers", "capture_preset",
                                              "pixel_footprint", "shadow_samples", "shadow_relay", "clothing",
-                                             "world_variation", "ceiling_people")
+                                             "world_variation", "ceiling_people", "render_device")
                if getattr(args, k) is not None}
     if "burst" in changes:
         changes["burst_frames"] = changes.pop("burst")
@@ -407,6 +408,9 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--fuse", action="store_true",
                    help="compile the torch pair kernels (torch.compile) for a GPU: same data; on a CPU the "
                         "compiled pair loops (render/pair_loops.py) serve instead and this changes nothing")
+    g.add_argument("--device", default="cpu", choices=("cpu", "cuda", "auto"),
+                   help="where people are rendered: cuda runs the pair kernels and the rays (Dr.Jit/OptiX, with "
+                        "Mitsuba installed) on the GPU; auto: cuda when there is one (default cpu)")
     g.set_defaults(func=cmd_generate)
     v = sub.add_parser("verify", help="check a dataset: every file's digest and every array's shape")
     v.add_argument("data_dir", help="dataset directory from nlos generate (or a room model from nlos fit)")
@@ -463,6 +467,9 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--checkpoint", help="trained run whose IEN picks the spot (--policy ien)")
     f.add_argument("--burst", type=int, help="frames averaged per capture (default 16)")
     f.add_argument("--workers", type=int, help="processes rendering people (default 2)")
+    f.add_argument("--device", dest="render_device", choices=("cpu", "cuda", "auto"),
+                   help="where people are rendered (default cpu): cuda runs the pair kernels and the rays on the GPU "
+                        "(nlos generate --device); training uses a GPU whenever there is one")
     f.add_argument("--capture-preset", help="capture variation to train for: tripod (default), rough, or ideal "
                                             "(photographs that match to the last bit: the recipe before drift)")
     f.add_argument("--pixel-footprint", type=int, help="the person's light integrated over each pixel from N x N "

@@ -211,7 +211,8 @@ def _glossy_corner_pair(person_samples: int, dtype: str, **variant):
     from nlos_spotlight.scene.examples import SPOT_TARGET, corner_scene
 
     settings = RenderSettings(pixel_samples=2, transport_pixel_samples=2, spot_samples=16,
-                              person_samples=person_samples, dtype=dtype, device="cpu", pair_loops=False)
+                              person_samples=person_samples, dtype=dtype, device="cpu", pair_loops=False,
+                              rays="embree")  # the reference engine: the loops and kernels cast the same rays
     sc = corner_scene("furniture", resolution=12)
     sc.materials["paint"].specular[:] = 0.3
     sc.ambient = Ambient(np.zeros(3), np.full(3, 0.05))

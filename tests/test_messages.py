@@ -120,3 +120,20 @@ def test_an_image_past_the_pixel_limit_is_named(tmp_path):
     (tmp_path / "bomb.png").write_bytes(png)
     with pytest.raises(NlosError, match="too large"):
         load_frames([str(tmp_path / "bomb.png")], (4, 4), False)
+
+
+def test_device_cuda_without_a_gpu_is_one_line(tmp_path, capsys):
+    import torch
+
+    from nlos_spotlight.errors import NlosError
+    from nlos_spotlight.render.settings import resolve_device
+
+    assert resolve_device("cpu") == "cpu"
+    assert resolve_device("auto") == ("cuda" if torch.cuda.is_available() else "cpu")
+    with pytest.raises(NlosError, match="--device"):
+        resolve_device("tpu")
+    if torch.cuda.is_available():
+        pytest.skip("this machine has a GPU: --device cuda is valid here")
+    _fails(capsys, ["generate", "tiny", "--out", str(tmp_path / "d"), "--device", "cuda", "--quiet"],
+           "--device cuda", "no CUDA GPU")
+    assert not (tmp_path / "d" / "scenes").exists()  # refused before any scene was written

@@ -20,6 +20,7 @@ import numpy as np
 import torch
 
 from ..errors import NlosError
+from ..render.settings import resolve_device
 from .config import ROOM_FAMILY, DatasetConfig, room_dir, sample_count
 from .store import (FORMAT, READABLE, atomic_json, content_sha256, file_digest, read_manifest, remove_stale_temporaries,
                     scene_id)
@@ -100,7 +101,8 @@ benchmarks/generate_images_speed.py). One thread also makes the bytes independen
 
 
 def generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int] = (0, 1), progress: bool = True,
-             threads: int = GENERATE_THREADS, part: tuple[int, int] = (0, 1), fuse: bool = False) -> dict:
+             threads: int = GENERATE_THREADS, part: tuple[int, int] = (0, 1), fuse: bool = False,
+             device: str = "cpu") -> dict:
     """Build this shard's scenes; write the manifest if that completes the dataset. Returns the shard record.
 
     ``threads``: torch threads while it runs (restored afterwards), see :data:`GENERATE_THREADS`.
@@ -108,19 +110,21 @@ def generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int] = (0, 1
     (``SceneBuilder.build``: several processes on one room). ``fuse``: the renderer's torch pair
     kernels fused by torch.compile (``render/fused.py``: the same numbers to float rounding), for a
     GPU; on a CPU the compiled pair loops (``render/pair_loops.py``) serve every person and this
-    changes nothing. An execution choice, not part of the dataset's config, recorded in the shard
+    changes nothing. ``device``: 'cpu', 'cuda' or 'auto' (``render.settings.resolve_device``): on a GPU
+    the renderer's torch pair kernels and Dr.Jit's OptiX rays (``render/rays_drjit.py``; the same numbers
+    to float rounding). Execution choices, not part of the dataset's config, recorded in the shard
     record.
     """
     before = torch.get_num_threads()
     torch.set_num_threads(threads)
     try:
-        return _generate(cfg, out, shard, progress, part, fuse)
+        return _generate(cfg, out, shard, progress, part, fuse, device)
     finally:
         torch.set_num_threads(before)
 
 
 def _generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int], progress: bool,
-              part: tuple[int, int] = (0, 1), fuse: bool = False) -> dict:
+              part: tuple[int, int] = (0, 1), fuse: bool = False, device: str = "cpu") -> dict:
     from ..console import QUIET, console
 
     out = Path(out)
@@ -130,6 +134,7 @@ def _generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int], progr
     from .config import check_memory, validate
 
     validate(cfg, "config")  # before anything is written: a refused config leaves nothing behind
+    device = resolve_device(device)
     check_memory(cfg, "config")
     if out.exists() and not out.is_dir():
         raise NlosError(f"--out: {out} is a file, not a dataset directory")
@@ -153,9 +158,10 @@ def _generate(cfg: DatasetConfig, out: str | Path, shard: tuple[int, int], progr
         from .scene_builder import SceneBuilder
 
         for p in mine:
-            SceneBuilder(cfg, p, out, fuse).build(lambda k=1: bar.advance(task, k), part)
+            SceneBuilder(cfg, p, out, fuse, device).build(lambda k=1: bar.advance(task, k), part)
     record = {"shard": f"{i}/{n}", "scenes": [p.id for p in mine], "seconds": time.perf_counter() - t0,
-              "versions": versions(), "torch_threads": torch.get_num_threads(), "fused_kernels": fuse}
+              "versions": versions(), "torch_threads": torch.get_num_threads(), "fused_kernels": fuse,
+              "device": device}
     (out / "shards").mkdir(exist_ok=True)
     name = f"{i}-of-{n}" + ("" if part == (0, 1) else f"-part-{part[0]}-of-{part[1]}")
     atomic_json(out / "shards" / f"{name}.json", record)

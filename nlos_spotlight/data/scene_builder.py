@@ -51,8 +51,8 @@ def low_rank(f: torch.Tensor, rank: int) -> tuple[np.ndarray, np.ndarray, float]
 class SceneBuilder:
     """Deterministic construction of one scene directory; resumes at the first missing sample."""
 
-    def __init__(self, cfg: DatasetConfig, plan, out: Path, fuse: bool = False):
-        self.cfg, self.plan, self.out, self.fuse = cfg, plan, Path(out), fuse
+    def __init__(self, cfg: DatasetConfig, plan, out: Path, fuse: bool = False, device: str = "cpu"):
+        self.cfg, self.plan, self.out, self.fuse, self.device = cfg, plan, Path(out), fuse, device
         self.dir = self.out / "scenes" / plan.id
 
     def build(self, advance, part: tuple[int, int] = (0, 1)) -> None:
@@ -78,7 +78,7 @@ class SceneBuilder:
                                   transport_pixel_samples=self.cfg.transport_pixel_samples,
                                   pixel_footprint=self.cfg.pixel_footprint,
                                   spot_samples=self.cfg.spot_samples, person_samples=self.cfg.person_samples,
-                                  fuse=self.fuse, device="cpu")
+                                  fuse=self.fuse, device=self.device)
         renderer = Renderer(scene, settings, aim_points=los.centroids())
         flash = Renderer(flash_scene(scene), dataclasses.replace(settings, spot_samples=settings.spot_samples
                                                                  * FLASH_SPOT_SAMPLES),

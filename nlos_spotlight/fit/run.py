@@ -33,9 +33,10 @@ from ..errors import NlosError
 from .config import FitConfig, recorded
 
 FORMAT = "nlos-room-model/1"
-RESUMABLE_CHANGES = ("workers",)
-"""Settings a resumed fit may change: the process count (the output is byte-identical)."""
-TRAINING_ONLY = ("capture_preset", "project_nuisance", "epochs", "min_steps", "workers", "shadow_samples", "shadow_relay",
+RESUMABLE_CHANGES = ("workers", "render_device")
+"""Settings a resumed fit may change: the process count (the output is byte-identical) and the
+rendering device (the same numbers to float rounding)."""
+TRAINING_ONLY = ("capture_preset", "project_nuisance", "epochs", "min_steps", "workers", "render_device", "shadow_samples", "shadow_relay",
                  "clothing", "world_variation", "ceiling_people")
 """Settings that leave the room and its rendered people as they are (``--people-from`` may differ in them)."""
 
@@ -64,7 +65,7 @@ def room_builder(out: Path, cfg: FitConfig):
     return SceneBuilder(dcfg, plan(dcfg)[0], out / "data"), dcfg
 
 
-def _part(dcfg, data: str, i: int, n: int) -> None:
+def _part(dcfg, data: str, i: int, n: int, device: str = "cpu") -> None:
     """One rendering process: its share of the image samples (after part 0 stored the spots).
     It dies with the fit (Linux: the parent-death signal), and fails with one line, not a traceback."""
     import signal
@@ -85,30 +86,30 @@ def _part(dcfg, data: str, i: int, n: int) -> None:
             if os.getppid() != parent:  # the fit was killed: nothing to wait for
                 return
             time.sleep(1.0)
-        generate(dcfg, data, progress=False, part=(i, n))
+        generate(dcfg, data, progress=False, part=(i, n), device=device)
     except Exception as exc:  # the main process reports the failure; this is its reason
         print(f"error: rendering process {i}: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}",
               file=sys.stderr)
         sys.exit(2)
 
 
-def render_people(dcfg, data: Path, workers: int, progress: bool) -> None:
-    """Generate the fit's dataset with ``workers`` processes sharing the one room."""
+def render_people(dcfg, data: Path, workers: int, progress: bool, device: str = "cpu") -> None:
+    """Generate the fit's dataset with ``workers`` processes sharing the one room, on ``device``."""
     from ..data.generate import generate
 
     if workers <= 1 or (data / "manifest.json").exists():
-        generate(dcfg, data, progress=progress)
+        generate(dcfg, data, progress=progress, device=device)
         return
     from ..data.store import remove_stale_temporaries
 
     data.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(data)  # before any part writes: later, another's temporary may be in flight
     ctx = mp.get_context("spawn")
-    procs = [ctx.Process(target=_part, args=(dcfg, str(data), i, workers), daemon=True) for i in range(1, workers)]
+    procs = [ctx.Process(target=_part, args=(dcfg, str(data), i, workers, device), daemon=True) for i in range(1, workers)]
     for p in procs:
         p.start()
     try:
-        generate(dcfg, data, progress=progress, part=(0, workers))
+        generate(dcfg, data, progress=progress, part=(0, workers), device=device)
     except BaseException:  # an error or Ctrl-C: stop the other parts too (their files are kept)
         for p in procs:
             p.terminate()
@@ -119,7 +120,7 @@ def render_people(dcfg, data: Path, workers: int, progress: bool) -> None:
     bad = [p.exitcode for p in procs if p.exitcode != 0]
     if bad:
         raise NlosError(f"{data}: a rendering process failed (exit {bad[0]}); rerun with --resume to continue")
-    generate(dcfg, data, progress=False)  # every part is there: done.json and the manifest
+    generate(dcfg, data, progress=False, device=device)  # every part is there: done.json and the manifest
 
 
 def check_out(out: Path, record: dict, resume: bool) -> None:
@@ -284,7 +285,7 @@ def _fit_steps(room: str, out: Path, cfg: FitConfig, flags: dict, record: dict, 
         clock.lap("room_s")
         console.rule("2/5 people")
         extra = _ien_spot(cfg, out / "room") if cfg.policy == "ien" else []
-        render_people(dataset_config(cfg, out / "room", extra), out / "data", cfg.workers, progress)
+        render_people(dataset_config(cfg, out / "room", extra), out / "data", cfg.workers, progress, cfg.render_device)
         clock.lap("generate_s")
     except BaseException as exc:  # refused input, a hostile file, Ctrl-C
         if fresh and not _has_people(out):  # no work worth keeping: the corrected rerun starts clean

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import os
+import types
 
 import numba
 import numpy as np
@@ -237,9 +238,33 @@ def no_keys(na: int, nb: int) -> tuple[np.ndarray, int]:
     return np.full(na, -1, np.int64), 0
 
 
+def _serial_twin(f):
+    """``f`` compiled without ``parallel`` (its prange a plain loop), cached under its own name."""
+    py = f.py_func
+    twin = types.FunctionType(py.__code__, py.__globals__, py.__name__ + "_serial", py.__defaults__, py.__closure__)
+    twin.__qualname__ = py.__qualname__ + "_serial"
+    return njit(cache=True)(twin)
+
+
+PARALLEL = {f.py_func.__name__: f for f in (need_counts, shadow_rays, radiosity, gather_weights, gather_sparse)}
+"""The loops with ``prange`` over numba's threading layer."""
+SERIAL = {name: _serial_twin(f) for name, f in PARALLEL.items()}
+"""The same loops on the calling thread alone: what a process told to use one thread runs (the fit's
+workers), with no threading layer between its hundred-odd calls a person."""
+_loops = PARALLEL
+
+
 def set_threads(n: int) -> None:
-    """Loop threads as torch's (a process told to use one thread keeps to one)."""
-    numba.set_num_threads(max(1, min(n, numba.config.NUMBA_NUM_THREADS)))
+    """Loop threads as torch's (a process told to use one thread keeps to one, in :data:`SERIAL`)."""
+    global _loops
+    n = max(1, min(n, numba.config.NUMBA_NUM_THREADS))
+    _loops = SERIAL if n == 1 else PARALLEL
+    numba.set_num_threads(n)
+
+
+def loops() -> dict:
+    """name -> compiled loop for the thread count of the last :func:`set_threads`."""
+    return _loops
 
 
 def group_runs(group: np.ndarray) -> np.ndarray:

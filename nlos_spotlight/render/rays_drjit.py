@@ -16,6 +16,8 @@ answers equal on the renderer's pair rays (``tests/render/test_rays_drjit.py``).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 CHUNK = 1 << 23
@@ -24,24 +26,30 @@ VARIANTS = {"cpu": "llvm_ad_rgb", "cuda": "cuda_ad_rgb"}
 """Mitsuba variant per device type (rays only: no spectral or differentiable work is done here)."""
 
 
+@functools.lru_cache(maxsize=None)
 def available(device: str = "cpu") -> bool:
-    """Whether Mitsuba 3 imports and its variant for ``device`` ('cpu' or 'cuda') runs here."""
+    """Whether Mitsuba 3 imports and casts a ray on ``device`` ('cpu' or 'cuda') here (a CUDA build
+    without the driver's OptiX fails only when it traces, so one ray is traced)."""
     try:
-        _mitsuba(device)
-        return True
-    except Exception:  # not installed, or the backend (LLVM, CUDA driver) missing
+        engine = DrJitRays(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float), np.array([[0, 1, 2]]), device)
+        hit = engine.occluded_rays(np.array([[0.2, 0.2, -1.0]]), np.array([[0.0, 0.0, 1.0]]), np.array([2.0]))
+        return bool(hit[0])
+    except Exception:  # not installed, or the backend (LLVM, CUDA driver, OptiX) missing
         return False
 
 
-def _mitsuba(device: str):
+def _mitsuba(device: str, threads: int | None = None):
     """The mitsuba module with a variant for ``device`` usable: set it if none is set yet (the
-    objects made under a variant keep working when another is set later)."""
+    objects made under a variant keep working when another is set later). ``threads``: Dr.Jit's
+    CPU pool size, set before the variant is (a pool made larger first keeps its threads)."""
+    import drjit as dr
     import mitsuba as mi
 
+    dr.set_log_level(dr.LogLevel.Error)  # not the kernel cache's races between the fit's processes
+    if threads is not None and dr.thread_count() != threads:
+        dr.set_thread_count(threads)
     want = VARIANTS[device]
-    if mi.variant() is None:
-        mi.set_variant(want)
-    elif mi.variant() != want:
+    if mi.variant() != want:
         mi.set_variant(want)
     return mi
 
@@ -79,19 +87,15 @@ class DrJitRays:
         self._scene = mi.load_dict({"type": "scene", "static": {"type": "instance", "shapegroup": self._group}})
 
     def _mi(self):
-        mi = _mitsuba(self.device)
-        if self.device == "cpu":  # the renderer's thread budget (the fit's workers split the cores)
-            import drjit as dr
+        if self.device != "cpu":
+            return _mitsuba(self.device)
+        n = self.threads
+        if n is None:  # the renderer's thread budget (the fit's workers split the cores)
+            import torch
 
-            n = self.threads
-            if n is None:
-                import torch
-
-                n = torch.get_num_threads()
-            n = 0 if n <= 1 else int(n)  # 0: the calling thread alone (idle pool workers spin, stealing it)
-            if dr.thread_count() != n:
-                dr.set_thread_count(n)
-        return mi
+            n = torch.get_num_threads()
+        # 0: the calling thread alone; a pool's idle workers spin, taking the core from the pair loops
+        return _mitsuba(self.device, 0 if n <= 1 else int(n))
 
     def with_body(self, body) -> "DrJitRays":
         """An engine over this mesh and ``body`` (``vertices``, ``faces``) together; the mesh's BVH is

@@ -45,6 +45,27 @@ class RenderSettings:
     'drjit' (Mitsuba 3's array ray tests: all cores, or OptiX on the GPU) or 'auto' (drjit where it runs)."""
 
 
+DEVICES = ("cpu", "cuda", "auto")
+"""Where a renderer runs: ``auto`` is cuda when torch sees a GPU."""
+
+
+def resolve_device(device: str) -> str:
+    """'cpu' or 'cuda' for a :data:`DEVICES` name (refused with a one-line reason if unknown or absent)."""
+    from ..errors import NlosError
+
+    if device not in DEVICES:
+        raise NlosError(f"--device: expected one of {', '.join(DEVICES)}, got {device!r}")
+    if device == "cpu":
+        return "cpu"
+    import torch
+
+    if torch.cuda.is_available():
+        return "cuda"
+    if device == "cuda":
+        raise NlosError("--device cuda: torch sees no CUDA GPU here (use --device cpu or auto)")
+    return "cpu"
+
+
 RENDER_PRESETS = {
     "default": RenderSettings(),
     "single-image": RenderSettings(person_samples=1024, spot_samples=256),
@@ -55,4 +76,4 @@ dataset config), ``single-image`` (``nlos render``: one image, more samples for 
 ``fast`` (a frame at video rate: 44-47 ms for a 64 x 64 image after the precompute on 2 CPU cores,
 ``benchmarks/render_speed.py``; its ``nlos`` is within 3.3% of ``default``'s in total)."""
 
-__all__ = ["RENDER_PRESETS", "RenderSettings"]
+__all__ = ["DEVICES", "RENDER_PRESETS", "RenderSettings", "resolve_device"]

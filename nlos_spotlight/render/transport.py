@@ -365,8 +365,8 @@ class Renderer:
         pair_loops.set_threads(torch.get_num_threads())
         keys = pair_loops.no_keys(len(pa), len(o)) if keys is None else (keys[0].cpu().numpy(), int(keys[1]))
         args = [x.detach().numpy() for x in (pa, na, front.reshape(-1), o, nb)] + [bool(closed), *keys]
-        start = pair_loops.pair_start(pair_loops.need_counts(*args))
-        org, dirs, length, idx = pair_loops.shadow_rays(*args, start)
+        start = pair_loops.pair_start(pair_loops.loops()["need_counts"](*args))
+        org, dirs, length, idx = pair_loops.loops()["shadow_rays"](*args, start)
         return start, idx, ~rays.occluded_rays(org, dirs, length)
 
     def _radiosity_loops(self, src, to_proj, lit, glossy: bool, w, group, groups, o, pts, person, rays):
@@ -374,7 +374,7 @@ class Renderer:
         start, idx, vis = self._loop_pairs(src["pos"], src["normal"], lit, o, pts["normal"], person.closed, rays)
         g = group.numpy()
         np_ = {k: src[k].detach().numpy() for k in ("pos", "normal", "kd", "ks", "alpha")}
-        f, b = pair_loops.radiosity(np_["pos"], np_["normal"], to_proj.numpy(), np_["kd"], np_["ks"], np_["alpha"],
+        f, b = pair_loops.loops()["radiosity"](np_["pos"], np_["normal"], to_proj.numpy(), np_["kd"], np_["ks"], np_["alpha"],
                                     glossy, w.detach().numpy(), pair_loops.group_runs(g), g, o.detach().numpy(),
                                     pts["normal"].numpy(), start, idx, vis, groups)
         return self._t(f), self._t(b)
@@ -387,14 +387,14 @@ class Renderer:
         start, idx, vis = self._loop_pairs(rp, rn, cos_c, o, pts["normal"], person.closed, rays, keys)
         if keys is not None:  # footprint sampling: few pairs a sub-sample, summed without dense weights
             np_ = lambda x: x.detach().numpy()
-            rad = pair_loops.gather_sparse(np_(rp), np_(rn), np_(r.to_cam[sl]), np_(cos_c.reshape(-1)),
+            rad = pair_loops.loops()["gather_sparse"](np_(rp), np_(rn), np_(r.to_cam[sl]), np_(cos_c.reshape(-1)),
                                            np_(r.pts["kd"][sl]), np_(r.pts["ks"][sl]), np_(r.pts["alpha"][sl]),
                                            np_(r.glossy[sl]), np_(o), np_(pts["normal"]), np_(pts["area"]), start, idx,
                                            vis, np_(front), np_(back))
             return self._t(rad)
         gl = r.glossy[sl].numpy()
         gl_row = np.where(gl, np.cumsum(gl) - 1, -1)
-        wf, wb, sf, sb, backs = pair_loops.gather_weights(
+        wf, wb, sf, sb, backs = pair_loops.loops()["gather_weights"](
             rp.numpy(), rn.numpy(), r.to_cam[sl].numpy(), cos_c.reshape(-1).numpy(), r.pts["alpha"][sl].numpy(),
             gl_row, int(gl.sum()), o.detach().numpy(), pts["normal"].numpy(), pts["area"].numpy(), start, idx, vis)
         wf, sf = torch.from_numpy(wf), torch.from_numpy(sf)

@@ -79,3 +79,21 @@ def test_shadow_rays_match_pair_rays():
 def test_group_runs():
     assert pair_loops.group_runs(np.array([0, 0, 3, 3, 3, 5])).tolist() == [0, 2, 5, 6]
     assert pair_loops.group_runs(np.zeros(4, np.int64)).tolist() == [0, 4]
+
+
+def test_serial_twins_equal_the_parallel_loops(pair):
+    """One thread runs the loops' serial twins (``pair_loops.SERIAL``): the same sums as the parallel ones."""
+    _, loops_r, person = pair
+    before = torch.get_num_threads()
+    out = {}
+    try:
+        for n in (1, 2):
+            torch.set_num_threads(n)
+            with torch.no_grad():
+                out[n] = loops_r.transport_images(person, [0.05, -0.03], nlos_ambient=True)
+            one = min(n, pair_loops.numba.config.NUMBA_NUM_THREADS) == 1
+            assert pair_loops.loops() is (pair_loops.SERIAL if one else pair_loops.PARALLEL)
+    finally:
+        torch.set_num_threads(before)
+    assert float(out[1].abs().max()) > 0
+    assert torch.allclose(out[1], out[2], rtol=1e-9, atol=1e-12 * float(out[2].abs().max()))

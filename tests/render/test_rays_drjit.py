@@ -63,7 +63,12 @@ def test_with_body_sees_both_meshes():
 
 def test_renderer_images_equal_with_either_engine(glossy_corner_pair):
     """A person's images (every candidate, flash-free) through either engine: within 1e-4."""
-    base, drjit_r, person = glossy_corner_pair(300, "float64", pair_loops=True, rays="drjit")
+    import dataclasses
+
+    from nlos_spotlight.render.transport import Renderer
+
+    torch_r, drjit_r, person = glossy_corner_pair(300, "float64", pair_loops=True, rays="drjit")
+    base = Renderer(torch_r.scene, dataclasses.replace(drjit_r.settings, rays="embree"), aim_points=torch_r.aim_points)
     assert isinstance(drjit_r.rays, rays_drjit.DrJitRays) and isinstance(base.rays, RayEngine)
     with torch.no_grad():
         want = base.transport_images(person, [0.05, -0.03], nlos_ambient=True)
@@ -72,9 +77,10 @@ def test_renderer_images_equal_with_either_engine(glossy_corner_pair):
     assert float((got - want).norm() / want.norm()) < 1e-4
 
 
-def test_auto_keeps_embree_on_cpu():
+def test_auto_picks_drjit_where_it_runs():
     v, f = _box([-1, -1, -1], [1, 1, 1])
     engine = RayEngine(v, f)
-    assert occlusion_engine(engine, "auto", "cpu") is engine
+    assert isinstance(occlusion_engine(engine, "auto", "cpu"), rays_drjit.DrJitRays)
+    assert occlusion_engine(engine, "embree", "cpu") is engine
     with pytest.raises(ValueError, match="rays"):
         occlusion_engine(engine, "optix", "cpu")

@@ -1,0 +1,199 @@
+"""People per second of ``nlos fit``'s image samples, one room, on 1 and 2 CPU cores (and a GPU).
+
+``nlos fit`` renders its people as ``workers`` processes of one thread each. This runs that: W
+processes (W = 1, 2: one per core) each render ``--people`` image samples of a real scan's fit at
+the fit's settings (``FitConfig`` defaults: 32 x 32 pixels, an 8 x 8 pixel footprint, 1,500-face
+bodies of about 2,000 samples, K = 10 stored spots, the flash and ``nlos_ambient`` through one
+person -> pixel pass, as ``SceneBuilder._image_sample``), started together after each has built its
+renderer; people/s = all their people over the wall time. The people are the fit's draws (the
+room model's ``SceneBuilder``), posed once here and handed to every run, so every row renders the
+same people. Each path runs ``--repeats`` times, interleaved with the others; the median is kept
+(this machine's speed wanders by a third from run to run).
+
+The reference, measured in the same run on the same people: the per-person path as it was before
+this benchmark: numba's ``omp`` threading layer for the pair loops (its idle threads spin between
+the loops' calls, ``render/pair_loops.py``) and embreex for the rays (one at a time; now Dr.Jit's
+array ray tests, ``render/rays_drjit.py``). On a machine with a CUDA GPU one more row renders in one process
+on the GPU (``device='cuda'``, Dr.Jit's OptiX rays when Mitsuba is installed) against that
+machine's one-core reference.
+
+Writes ``--out`` (default ``docs/results/render-throughput.csv``: ``device,threads,people_per_s,
+reference_people_per_s,ratio``) and, beside it, the same with the machine and settings (``.json``).
+
+    python benchmarks/render_throughput.py [--config benchmarks/configs/rooms/copyroom.yaml]
+        [--people 16] [--cores 1,2] [--out docs/results/render-throughput.csv]
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import json
+import multiprocessing as mp
+import os
+import platform
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+PATHS = {"new": (None, "auto"), "reference": ("omp", "embree"), "new-embree": (None, "embree")}
+"""(numba threading layer, ``RenderSettings.rays``) of each measured path (None: the package's
+choice): today's defaults, the path before them, and today's loops with the old rays (the two
+changes apart; in the .json only)."""
+
+
+def build_room(config: str, work: Path):
+    """The fit's room saved under ``work`` and its ``SceneBuilder`` (the fit's people draws)."""
+    from nlos_spotlight.args import parse_numbers
+    from nlos_spotlight.config_file import load_room_config
+    from nlos_spotlight.fit.config import FitConfig
+    from nlos_spotlight.fit.room import room_setup
+    from nlos_spotlight.fit.run import room_builder
+    from nlos_spotlight.scene.io import save_scene
+
+    rc = load_room_config(config)
+    cfg = FitConfig()
+    point = {k: parse_numbers(rc[k], "X,Y,Z", k).tolist() if k in rc else None
+             for k in ("camera_position", "camera_look_at", "projector_position")}
+    s = room_setup(rc["room"], cfg.resolution, point["camera_position"], point["camera_look_at"],
+                   point["projector_position"], rc.get("hidden_region"), rc.get("up"))
+    save_scene(s.scene, work / "room")
+    sb, dcfg = room_builder(work, cfg)
+    return sb, dcfg
+
+
+def people(sb, n: int) -> list:
+    """``n`` of the fit's image-sample people, posed: (Person, translation (3,))."""
+    room, specs = sb._scan_people()
+    floor_z = room.hidden_region.floor_z
+    first = sb.cfg.transport_samples_per_scene
+    return [sb._person(spec, floor_z)[1:] for spec in specs[first:first + n]]
+
+
+def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, barrier, queue) -> None:
+    """Build the renderer, wait for the others, render every person; put (seconds, people)."""
+    import torch
+
+    from nlos_spotlight.data.flash import FLASH_SPOT_SAMPLES, flash_scene
+    from nlos_spotlight.render.surface import StaticSurfaces
+    from nlos_spotlight.render.transport import Renderer, RenderSettings
+    from nlos_spotlight.scene.io import load_scene
+    from nlos_spotlight.scene.los import los_mesh
+
+    torch.set_num_threads(1)
+    scene = load_scene(room_dir)
+    surfaces = StaticSurfaces(scene)
+    los = los_mesh(surfaces.mesh, surfaces.engine, scene.camera, dcfg.los_vertices)
+    settings = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
+                              pixel_footprint=dcfg.pixel_footprint, spot_samples=dcfg.spot_samples,
+                              person_samples=dcfg.person_samples, device=device, rays=rays)
+    r = Renderer(scene, settings, aim_points=los.centroids())
+    flash = Renderer(flash_scene(scene), dataclasses.replace(settings, spot_samples=settings.spot_samples
+                                                             * FLASH_SPOT_SAMPLES), aim_points=scene.camera.look_at[None])
+    with torch.no_grad():
+        r.transport_images(people[0][0], people[0][1], spots, also=(flash,), nlos_ambient=True)  # warm-up
+        barrier.wait()
+        t = time.perf_counter()
+        for person, tr in people:
+            r.transport_images(person, tr, spots, also=(flash,), nlos_ambient=True)
+        if device == "cuda":
+            torch.cuda.synchronize()
+    queue.put((time.perf_counter() - t, len(people)))
+
+
+def throughput(room_dir: Path, dcfg, people, spots, processes: int, path: tuple, device: str = "cpu") -> float:
+    """People per second of ``processes`` concurrent renderers, each rendering all of ``people``;
+    ``path``: (numba threading layer, ray engine) as :data:`PATHS`."""
+    layer, rays = path
+    ctx = mp.get_context("spawn")
+    barrier, queue = ctx.Barrier(processes), ctx.Queue()
+    old = os.environ.get("NUMBA_THREADING_LAYER")
+    if layer is not None:
+        os.environ["NUMBA_THREADING_LAYER"] = layer  # the children read it when they import numba
+    try:
+        procs = [ctx.Process(target=_worker, args=(str(room_dir), dcfg, people, spots, device, rays, barrier, queue))
+                 for _ in range(processes)]
+        for p in procs:
+            p.start()
+        res = [queue.get() for _ in procs]
+        for p in procs:
+            p.join()
+    finally:
+        os.environ.pop("NUMBA_THREADING_LAYER", None)
+        if old is not None:
+            os.environ["NUMBA_THREADING_LAYER"] = old
+    if any(p.exitcode != 0 for p in procs):
+        raise SystemExit("a rendering process failed")
+    return sum(n for _, n in res) / max(s for s, _ in res)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--config", default=str(ROOT / "benchmarks/configs/rooms/copyroom.yaml"), help="room config (nlos fit --config)")
+    ap.add_argument("--people", type=int, default=16, help="people each process renders")
+    ap.add_argument("--cores", default="1,2", help="CPU process counts (one thread each)")
+    ap.add_argument("--repeats", type=int, default=3, help="runs of each path, interleaved; the median is kept")
+    ap.add_argument("--out", default=str(ROOT / "docs/results/render-throughput.csv"))
+    args = ap.parse_args()
+    import torch
+
+    from nlos_spotlight.scene.los import los_mesh
+    from nlos_spotlight.render.surface import StaticSurfaces
+
+    cores = [int(c) for c in args.cores.split(",")]
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        sb, dcfg = build_room(args.config, work)
+        ppl = people(sb, args.people)
+        scene = sb.room_scene()
+        surfaces = StaticSurfaces(scene)
+        los = los_mesh(surfaces.mesh, surfaces.engine, scene.camera, dcfg.los_vertices)
+        spots = np.linspace(0, len(los.faces) - 1, 10).round().astype(int).tolist()  # K = 10 spread candidates
+        nsamp = int(np.mean([len(p) for p, _ in ppl]))
+        print(f"room {args.config}: {len(los.faces)} candidates, K = {len(spots)} spots, {dcfg.resolution}x{dcfg.resolution}, "
+              f"footprint {dcfg.pixel_footprint}, {nsamp} body samples a person (mean), {args.people} people a process")
+        rows, extra = [], []
+        for n in cores:
+            runs = {k: [] for k in PATHS}
+            for _ in range(args.repeats):  # interleaved: a slow spell of the machine hits every path
+                for k, path in PATHS.items():
+                    runs[k].append(throughput(work / "room", dcfg, ppl, spots, n, path))
+            got = {k: float(np.median(v)) for k, v in runs.items()}
+            rows.append({"device": "cpu", "threads": n, "people_per_s": got["new"],
+                         "reference_people_per_s": got["reference"], "ratio": got["new"] / got["reference"]})
+            extra.append({"threads": n, **got, "runs": runs})
+            print(f"cpu, {n} core(s): {got['new']:.2f} people/s, reference {got['reference']:.2f}: "
+                  f"{rows[-1]['ratio']:.2f}x (the new loops with the old rays: {got['new-embree']:.2f})", flush=True)
+        if torch.cuda.is_available():
+            card = torch.cuda.get_device_name(0)
+            gpu = throughput(work / "room", dcfg, ppl, spots, 1, PATHS["new"], "cuda")
+            ref = throughput(work / "room", dcfg, ppl, spots, 1, PATHS["reference"])
+            rows.append({"device": card, "threads": 1, "people_per_s": gpu, "reference_people_per_s": ref, "ratio": gpu / ref})
+            print(f"{card}: {gpu:.2f} people/s, one-core reference {ref:.2f}: {gpu / ref:.2f}x")
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with open(out, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=["device", "threads", "people_per_s", "reference_people_per_s", "ratio"])
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: (f"{v:.4g}" if isinstance(v, float) else v) for k, v in r.items()})
+    meta = {"command": "python benchmarks/render_throughput.py " + " ".join(f"--{k} {v}" for k, v in vars(args).items()
+                                                                          if k != "out"),
+            "machine": {"cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
+                        "python": platform.python_version(), "torch": torch.__version__},
+            "people_per_process": args.people, "body_samples_mean": nsamp, "spots": spots,
+            "settings": {k: getattr(dcfg, k) for k in ("resolution", "pixel_footprint", "person_samples", "body_faces",
+                                                         "spot_samples", "person_quadrature")},
+            "paths": {k: {"numba_threading_layer": v[0] or "workqueue (the package's)", "rays": v[1]}
+                      for k, v in PATHS.items()},
+            "rows": rows, "all_paths_people_per_s": extra}
+    out.with_suffix(".json").write_text(json.dumps(meta, indent=1))
+    print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    main()
