@@ -34,6 +34,7 @@ demo-paper: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/render_speed.py
 	$(BIN)/python benchmarks/render_vs_mitsuba.py
+	$(BIN)/python benchmarks/render_throughput.py
 
 clean:
 	rm -rf $(VENV) out

@@ -211,6 +211,9 @@ def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = F
     out = Path(out)
     record = {"format": FORMAT, "settings": {"room": str(Path(room).resolve()), **flags, **cfg.to_dict()},
               "versions": versions()}
+    from ..render.settings import resolve_device
+
+    resolve_device(cfg.render_device)  # --device cuda without a GPU: refused before anything is written
     if cfg.policy == "ien":  # a bad checkpoint is refused before anything is written
         from .spot import check_ien_run
 

@@ -238,6 +238,25 @@ def no_keys(na: int, nb: int) -> tuple[np.ndarray, int]:
     return np.full(na, -1, np.int64), 0
 
 
+@njit(cache=True)
+def segments_cross_box(a, b, lo, hi):
+    """(Na, Nb) bool: the segment a_i -> b_j meets the box [lo, hi]: ``render.shadow.segments_cross_box``
+    (the torch reference) as one loop, the same slab test in float64 without its (Na, Nb, 3) temporaries."""
+    out = np.zeros((a.shape[0], b.shape[0]), np.bool_)
+    for i in range(a.shape[0]):
+        for j in range(b.shape[0]):
+            near, far = 0.0, 1.0
+            for k in range(3):
+                d = b[j, k] - a[i, k]
+                if abs(d) < 1e-12:
+                    d = 1e-12
+                t0, t1 = (lo[k] - a[i, k]) / d, (hi[k] - a[i, k]) / d
+                near = max(near, min(t0, t1))
+                far = min(far, max(t0, t1))
+            out[i, j] = near <= far
+    return out
+
+
 def _serial_twin(f):
     """``f`` compiled without ``parallel`` (its prange a plain loop), cached under its own name."""
     py = f.py_func
@@ -278,4 +297,4 @@ def pair_start(counts: np.ndarray) -> np.ndarray:
     return np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
 
 
-__all__ = ["gather_sparse", "gather_weights", "group_runs", "need_counts", "no_keys", "pair_start", "radiosity", "set_threads", "shadow_rays"]
+__all__ = ["segments_cross_box", "gather_sparse", "gather_weights", "group_runs", "need_counts", "no_keys", "pair_start", "radiosity", "set_threads", "shadow_rays"]

@@ -468,7 +468,7 @@ def test_a_fit_refused_before_any_person_leaves_nothing(room_dir, tmp_path, monk
     import nlos_spotlight.fit.run as run
     from nlos_spotlight.errors import NlosError
 
-    def refuse(dcfg, data, workers, progress):
+    def refuse(dcfg, data, workers, progress, device="cpu"):
         raise NlosError("camera: sees no geometry")
 
     monkeypatch.setattr(run, "render_people", refuse)
@@ -476,7 +476,7 @@ def test_a_fit_refused_before_any_person_leaves_nothing(room_dir, tmp_path, monk
            "sees no geometry", "nothing was kept")
     assert not (tmp_path / "m").exists()
 
-    def half(dcfg, data, workers, progress):
+    def half(dcfg, data, workers, progress, device="cpu"):
         (data / "scenes").mkdir(parents=True)
         (data / "scenes" / "sample-00000.npz").write_bytes(b"finished work")
         raise NlosError("a rendering process failed")

@@ -26,6 +26,19 @@ def test_segments_cross_box_equals_dense_sampling():
     assert (got[core.any(0)]).all() and not got[~inside.any(0)].any()
 
 
+def test_compiled_crossing_equals_the_torch_slab_test():
+    from nlos_spotlight.render.pair_loops import segments_cross_box as loop
+
+    rng = np.random.default_rng(1)
+    a, b = rng.uniform(-2, 2, (300, 3)), rng.uniform(-2, 2, (200, 3))
+    b[:20, 0] = a[0, 0]  # segments parallel to a slab
+    lo, hi = np.array([-0.5, -0.3, -0.4]), np.array([0.4, 0.6, 0.2])
+    want = segments_cross_box(*(torch.as_tensor(x) for x in (a, b, lo, hi))).numpy()
+    got = loop(a, b, lo, hi)
+    assert 1000 < want.sum() < want.size - 1000
+    assert np.array_equal(got, want)
+
+
 def test_shadow_needs_the_body_in_the_way():
     """No light is lost with the body far from every spot -> floor -> wall path, and some with it
     where its shadow falls on lit floor; the light lost never exceeds nlos's magnitude scale."""
