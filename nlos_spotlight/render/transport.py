@@ -347,8 +347,10 @@ class Renderer:
         return vis
 
     def body_rays(self, vertices: np.ndarray, faces: np.ndarray):
-        """An occlusion engine over a body alone, of the renderer's ray backend."""
-        if self.rays is self.static.engine:
+        """An occlusion engine over a body alone for small batches of rays (``nlos_shadow``'s body
+        tests): embreex on a CPU, where Dr.Jit's cost per call outweighs its speed per ray on such small
+        batches; the renderer's engine on a GPU."""
+        if self.rays is self.static.engine or self.device.type == "cpu":
             return RayEngine(vertices, faces)
         from .rays_drjit import DrJitRays
 
