@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# The per-room fit against people per room (issue 38, item 4): one nlos fit per room and count, resumable;
+# about 13 min per 3,000 people on 2 cores. Not run by CI.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/../.."
+PY=.venv/bin/python
+
+$PY experiments/people-curve/people_curve.py --rooms copyroom --people 3000,6000 --quiet
