@@ -33,6 +33,7 @@ import json
 import multiprocessing as mp
 import os
 import platform
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -80,7 +81,7 @@ def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, barrier,
 
     from nlos_spotlight.data.flash import FLASH_SPOT_SAMPLES, flash_scene
     from nlos_spotlight.render.surface import StaticSurfaces
-    from nlos_spotlight.render.transport import Renderer, RenderSettings
+    from nlos_spotlight.render.transport import Renderer
     from nlos_spotlight.scene.io import load_scene
     from nlos_spotlight.scene.los import los_mesh
 
@@ -88,9 +89,7 @@ def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, barrier,
     scene = load_scene(room_dir)
     surfaces = StaticSurfaces(scene)
     los = los_mesh(surfaces.mesh, surfaces.engine, scene.camera, dcfg.los_vertices)
-    settings = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
-                              pixel_footprint=dcfg.pixel_footprint, spot_samples=dcfg.spot_samples,
-                              person_samples=dcfg.person_samples, device=device, rays=rays)
+    settings = dcfg.render_settings(device=device, rays=rays)
     r = Renderer(scene, settings, aim_points=los.centroids())
     flash = Renderer(flash_scene(scene), dataclasses.replace(settings, spot_samples=settings.spot_samples
                                                              * FLASH_SPOT_SAMPLES), aim_points=scene.camera.look_at[None])
@@ -181,8 +180,7 @@ def main() -> None:
         w.writeheader()
         for r in rows:
             w.writerow({k: (f"{v:.4g}" if isinstance(v, float) else v) for k, v in r.items()})
-    meta = {"command": "python benchmarks/render_throughput.py " + " ".join(f"--{k} {v}" for k, v in vars(args).items()
-                                                                          if k != "out"),
+    meta = {"command": " ".join(["python benchmarks/render_throughput.py", *sys.argv[1:]]),
             "machine": {"cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
                         "python": platform.python_version(), "torch": torch.__version__},
             "people_per_process": args.people, "body_samples_mean": nsamp, "spots": spots,

@@ -151,15 +151,12 @@ def camera_people(room: Room, cache: Path, pixel_samples: int) -> dict[str, np.n
     """The held-out people rendered again (cached): the fit's settings (a reproduction check),
     ``pixel_samples``^2 sub-samples a pixel, and the shadow term."""
     from nlos_spotlight.data.store import atomic_npz
-    from nlos_spotlight.render.settings import RenderSettings
 
     path = cache / room.name / f"people-{len(room.indices)}-p{pixel_samples}.npz"
     if (got := cached(path, room)) is not None:
         return got
     builder, dcfg = room_builder(room.path, fit_config(room.path))
-    base = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
-                          pixel_footprint=dcfg.pixel_footprint, spot_samples=dcfg.spot_samples,
-                          person_samples=dcfg.person_samples, device="cpu")
+    base = dcfg.render_settings()
     t0 = time.perf_counter()
     fine = builder.rerender(room.indices, dataclasses.replace(base, transport_pixel_samples=pixel_samples,
                                                               pixel_footprint=0, shadow_samples=SHADOW_SAMPLES),
@@ -176,16 +173,13 @@ def fit_reproduction(room: Room, cache: Path) -> dict[str, np.ndarray]:
     (``fit_nlos``: the check that they are the dataset's) and, for a fit with footprint sampling,
     all of them at its footprint with other pixel offsets (``offset_nlos``, :data:`CAMERA_SEED`)."""
     from nlos_spotlight.data.store import atomic_npz
-    from nlos_spotlight.render.settings import RenderSettings
 
     cfg = fit_config(room.path)
     path = cache / room.name / f"fit-{len(room.indices)}-f{cfg.pixel_footprint}-s{cfg.shadow_samples}.npz"
     if (got := cached(path, room)) is not None:
         return {k: v for k, v in got.items() if k != "indices"}
     builder, dcfg = room_builder(room.path, cfg)
-    base = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
-                          pixel_footprint=dcfg.pixel_footprint, spot_samples=dcfg.spot_samples,
-                          person_samples=dcfg.person_samples, device="cpu")
+    base = dcfg.render_settings()
     out = {"fit_nlos": builder.rerender(room.indices[:REPRODUCED], base, room.aim, ("nlos",))["nlos"]}
     if cfg.shadow_samples > 0:  # the fit's own shadow, only its relay points drawn apart
         out["relay_shadow"] = builder.rerender(room.indices, dataclasses.replace(
@@ -315,15 +309,12 @@ def fine_light(room: Room, cache: Path) -> dict[str, np.ndarray]:
     """The held-out people's scattered light (``nlos``, ``nlos_ambient``) at :data:`FINE_FOOTPRINT`
     (cached): ``f32_nlos``, ``f32_nlos_ambient``."""
     from nlos_spotlight.data.store import atomic_npz
-    from nlos_spotlight.render.settings import RenderSettings
 
     path = cache / room.name / f"fine-{len(room.indices)}-f{FINE_FOOTPRINT}.npz"
     if (got := cached(path, room)) is not None:
         return {k: v for k, v in got.items() if k != "indices"}
     builder, dcfg = room_builder(room.path, fit_config(room.path))
-    rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=FINE_FOOTPRINT,
-                        spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
-                        footprint_seed=CAMERA_SEED + 50, device="cpu")
+    rs = dcfg.render_settings(pixel_footprint=FINE_FOOTPRINT, footprint_seed=CAMERA_SEED + 50)
     got = builder.rerender(room.indices, rs, room.aim, ("nlos", "nlos_ambient"))
     out = {f"f32_{k}": v for k, v in got.items()}
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -79,6 +79,17 @@ class DatasetConfig:
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 
+    def render_settings(self, **overrides):
+        """The renderer's settings of this dataset's people (``render.settings.RenderSettings``: the
+        sampling fields of this config), with ``overrides`` (execution: ``device``, ``fuse``, ``rays``;
+        or the shadow's ``shadow_samples``); the one place those fields pass from config to renderer."""
+        from ..render.settings import RenderSettings
+
+        own = dict(pixel_samples=self.pixel_samples, transport_pixel_samples=self.transport_pixel_samples,
+                   pixel_footprint=self.pixel_footprint, spot_samples=self.spot_samples,
+                   person_samples=self.person_samples, device="cpu")
+        return RenderSettings(**{**own, **overrides})
+
 
 PRESETS = {
     # the body light of every preset is within 0.5% of a converged render (faces rule, 3500 -> ~3850

@@ -74,11 +74,7 @@ class SceneBuilder:
             save_scene(scene, self.dir)
         surfaces = StaticSurfaces(scene)
         los = los_mesh(surfaces.mesh, surfaces.engine, scene.camera, self.cfg.los_vertices)
-        settings = RenderSettings(pixel_samples=self.cfg.pixel_samples,
-                                  transport_pixel_samples=self.cfg.transport_pixel_samples,
-                                  pixel_footprint=self.cfg.pixel_footprint,
-                                  spot_samples=self.cfg.spot_samples, person_samples=self.cfg.person_samples,
-                                  fuse=self.fuse, device=self.device)
+        settings = self.cfg.render_settings(fuse=self.fuse, device=self.device)
         renderer = Renderer(scene, settings, aim_points=los.centroids())
         flash = Renderer(flash_scene(scene), dataclasses.replace(settings, spot_samples=settings.spot_samples
                                                                  * FLASH_SPOT_SAMPLES),

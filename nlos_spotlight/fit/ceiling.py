@@ -89,7 +89,7 @@ def room_ceiling(out: Path, cfg: FitConfig, spot: dict, progress: bool = True) -
     from ..console import QUIET, console
     from ..evaluate.ideal_observer import ideal_observer
     from ..render.sensor import SensorConfig, auto_exposure, dn_per_radiance, noise_variance_dn
-    from ..render.settings import RenderSettings, resolve_device
+    from ..render.settings import resolve_device
     from ..render.transport import Renderer
     from ..world.body import POSTURES
     from .run import room_builder
@@ -97,9 +97,7 @@ def room_ceiling(out: Path, cfg: FitConfig, spot: dict, progress: bool = True) -
 
     builder, dcfg = room_builder(out, cfg)
     room, specs = builder._scan_people()
-    settings = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
-                              pixel_footprint=dcfg.pixel_footprint, spot_samples=dcfg.spot_samples,
-                              person_samples=dcfg.person_samples, device=resolve_device(cfg.render_device))
+    settings = dcfg.render_settings(device=resolve_device(cfg.render_device))
     r = Renderer(room, settings, aim_points=np.asarray(spot["aim"], np.float64)[None])
     y = r.spot_vector(0)
     sensor = SensorConfig.at(r.shape, capture_overrides(out, cfg), {"burst_frames": 1})  # one frame's noise

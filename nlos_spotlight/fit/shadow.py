@@ -114,15 +114,12 @@ def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int]
     their ``nlos_shadow`` under the spot aimed at ``aim`` (their whole light in drawn worlds under a
     world variation, :func:`_in_worlds`)."""
     from ..data.store import atomic_npz, f16_encode
-    from ..render.settings import RenderSettings, resolve_device
+    from ..render.settings import resolve_device
     from .run import room_builder
 
     out_p, fc = Path(out), FitConfig(**cfg)
     builder, dcfg = room_builder(out_p, fc)
-    settings = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=dcfg.transport_pixel_samples,
-                              pixel_footprint=dcfg.pixel_footprint, spot_samples=dcfg.spot_samples,
-                              person_samples=dcfg.person_samples, shadow_samples=fc.shadow_samples,
-                              device=resolve_device(fc.render_device))
+    settings = dcfg.render_settings(shadow_samples=fc.shadow_samples, device=resolve_device(fc.render_device))
     aim = np.asarray(aim, np.float64)
     if fc.world_variation == "ideal":
         got = builder.rerender(indices, settings, aim, ("nlos_shadow",), relay_offsets(indices, fc))

@@ -257,6 +257,60 @@ def segments_cross_box(a, b, lo, hi):
     return out
 
 
+@njit(cache=True)
+def shadow_leg(rp, rn, kd, cos_c, hp, hn, area, l_blk, l_rest, blk_any, cross, vs):
+    """The diffuse second leg of ``render.shadow.SpotShadow._second_leg`` in one pass over the pairs
+    (camera point p, relay point h): returns the radiance (P, 3) of the light blocked on the first
+    leg, and the body rays of the pairs whose segment crosses the body's box (float32 origins,
+    directions, lengths as ``rays.pair_rays``) with each one's camera point and its radiance if the
+    body blocks it (M, 3): the caller adds those the body blocks. ``cross`` (P, K) the box test,
+    ``vs`` (P, K) the static visibility, ``blk_any`` (K,) h with light blocked on the first leg."""
+    n_p, n_h = rp.shape[0], hp.shape[0]
+    rad = np.zeros((n_p, 3))
+    m = 0
+    for a in range(n_p):
+        for b in range(n_h):
+            if cross[a, b] and vs[a, b] > 0:
+                m += 1
+    org = np.empty((m, 3), np.float32)
+    dirs = np.empty((m, 3), np.float32)
+    length = np.empty(m, np.float32)
+    row = np.empty(m, np.int64)
+    lost = np.empty((m, 3))
+    k = 0
+    for a in range(n_p):
+        c = kd[a] / math.pi
+        for b in range(n_h):
+            if not (blk_any[b] or cross[a, b]) or vs[a, b] <= 0:
+                continue
+            dx, dy, dz, r2, cos_a, cos_b = _pair(rp, rn, hp, hn, a, b)
+            if cos_a * cos_c[a] <= 0:
+                continue
+            w = abs(cos_a) * abs(cos_b) / r2 * vs[a, b] * area[b]
+            side = 0 if cos_b > 0 else 1  # the side of h that faces p
+            for ch in range(3):
+                rad[a, ch] += c[ch] * w * l_blk[side, b, ch]
+            if not cross[a, b]:
+                continue
+            sa = np.sign(cos_a)
+            sb = np.sign(cos_b)
+            ox = rp[a, 0] + EPS * (sa * rn[a, 0] + dx)
+            oy = rp[a, 1] + EPS * (sa * rn[a, 1] + dy)
+            oz = rp[a, 2] + EPS * (sa * rn[a, 2] + dz)
+            ex = hp[b, 0] + EPS * (sb * hn[b, 0] - dx) - ox
+            ey = hp[b, 1] + EPS * (sb * hn[b, 1] - dy) - oy
+            ez = hp[b, 2] + EPS * (sb * hn[b, 2] - dz) - oz
+            el = math.sqrt(ex * ex + ey * ey + ez * ez)
+            org[k, 0], org[k, 1], org[k, 2] = ox, oy, oz
+            dirs[k, 0], dirs[k, 1], dirs[k, 2] = ex / el, ey / el, ez / el
+            length[k] = max(el - EPS, 0.0)
+            row[k] = a
+            for ch in range(3):
+                lost[k, ch] = c[ch] * w * l_rest[side, b, ch]
+            k += 1
+    return rad, org[:k], dirs[:k], length[:k], row[:k], lost[:k]
+
+
 def _serial_twin(f):
     """``f`` compiled without ``parallel`` (its prange a plain loop), cached under its own name."""
     py = f.py_func
@@ -297,4 +351,4 @@ def pair_start(counts: np.ndarray) -> np.ndarray:
     return np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
 
 
-__all__ = ["segments_cross_box", "gather_sparse", "gather_weights", "group_runs", "need_counts", "no_keys", "pair_start", "radiosity", "set_threads", "shadow_rays"]
+__all__ = ["shadow_leg", "segments_cross_box", "gather_sparse", "gather_weights", "group_runs", "need_counts", "no_keys", "pair_start", "radiosity", "set_threads", "shadow_rays"]

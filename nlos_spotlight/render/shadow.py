@@ -140,8 +140,10 @@ class SpotShadow:
             cross = crossing[g][:, sel]
             for a in range(0, len(rows), r.settings.chunk):
                 b = slice(a, a + r.settings.chunk)
-                out[rows[b]] = self._second_leg(body, rec, rows[b], cos_c[rows[b]], hg, ak[kk], l_blk[:, kk],
-                                                l_rest[:, kk], cross[b], None if vis is None else vis[b][:, sel])
+                leg = self._second_leg_loops if vis is not None and r.device.type == "cpu" \
+                    and not rec.glossy[rows[b]].any() else self._second_leg  # the torch one: the reference
+                out[rows[b]] = leg(body, rec, rows[b], cos_c[rows[b]], hg, ak[kk], l_blk[:, kk], l_rest[:, kk], cross[b],
+                                   None if vis is None else vis[b][:, sel])
         return -r._pixels(rec.scale(out), rec)
 
     def _static_visibility(self, g: int, rows: torch.Tensor, hs: torch.Tensor, cos_c) -> torch.Tensor | None:
@@ -181,6 +183,21 @@ class SpotShadow:
 
     def _chunks(self, rows: torch.Tensor):
         return torch.split(rows, self.r.settings.chunk)
+
+    def _second_leg_loops(self, body, rec, sl, cos_c, hk, ak, l_blk, l_rest, cross, vs_static) -> torch.Tensor:
+        """:meth:`_second_leg` for diffuse camera points with the static visibility cached, as one
+        compiled pass (``pair_loops.shadow_leg``) and the body rays of the crossing pairs only."""
+        from .pair_loops import shadow_leg
+
+        f64 = lambda x: x.detach().double().numpy()
+        rad, org, dirs, length, row, lost = shadow_leg(
+            f64(rec.pts["pos"][sl]), f64(rec.pts["normal"][sl]), f64(rec.pts["kd"][sl]), f64(cos_c.reshape(-1)),
+            f64(hk["pos"]), f64(hk["normal"]), f64(ak), f64(l_blk), f64(l_rest), (l_blk.sum((0, 2)) > 0).numpy(),
+            cross.numpy(), f64(vs_static))
+        if len(row):
+            hit = body.occluded_rays(org, dirs, length)
+            np.add.at(rad, row[hit], lost[hit])
+        return self.r._t(rad)
 
     def _second_leg(self, body, rec, sl, cos_c, hk, ak, l_blk, l_rest, cross, vs_static) -> torch.Tensor:
         """(P, 3) radiance toward the camera from camera points ``sl`` of the light the body stops;

@@ -46,6 +46,9 @@ INTER_CACHE_SPOTS = 8
 """Largest support of y whose interreflection is read from the per-candidate images."""
 INTER_CACHE_SIZE = 256
 """Candidates' interreflection images kept per renderer (48 kB each at 64 x 64)."""
+FOOTPRINT_LOOP_CHUNK = 16384
+"""Camera sub-samples per block of the footprint-sampled gather in the compiled loops (its memory
+is a few rays a sub-sample, so blocks can be large: one ray call each)."""
 COMPONENTS = ("direct", "interreflection", "ambient", "nlos", "nlos_ambient", "nlos_shadow")
 DEFAULT_COMPONENTS = ("direct", "ambient", "nlos", "nlos_ambient")
 
@@ -527,11 +530,14 @@ class Renderer:
         r = self.recv_t
         out = torch.zeros(len(r.pixel), front.shape[1], device=self.device, dtype=self.dtype)
         wa = pts["area"]
-        for a in range(0, len(r.pixel), self.settings.chunk):
-            sl = slice(a, a + self.settings.chunk)
+        loops = self._loops(o, wa, front, back)
+        # footprint sampling in the loops keeps nothing of size (rows, N): larger blocks, fewer ray calls
+        step = FOOTPRINT_LOOP_CHUNK if loops and r.key is not None else self.settings.chunk
+        for a in range(0, len(r.pixel), step):
+            sl = slice(a, a + step)
             rp, rn = r.pts["pos"][sl], r.pts["normal"][sl]
             cos_c = (rn * r.to_cam[sl]).sum(-1, keepdim=True)
-            if self._loops(o, wa, front, back):
+            if loops:
                 out[sl] = self._gather_loops(sl, cos_c, o, pts, person, rays, front, back)
                 continue
             need = self.kernels("pair_need", rp, rn, cos_c, o, pts["normal"], person.closed)
