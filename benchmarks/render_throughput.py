@@ -11,9 +11,11 @@ same people. Each path runs ``--repeats`` times, interleaved with the others; th
 (this machine's speed wanders by a third from run to run).
 
 The reference, measured in the same run on the same people: the per-person path as it was before
-this benchmark: numba's ``omp`` threading layer for the pair loops (its idle threads spin between
-the loops' calls, ``render/pair_loops.py``) and embreex for the rays (one at a time; now Dr.Jit's
-array ray tests, ``render/rays_drjit.py``). On a machine with a CUDA GPU one more row renders in one process
+this benchmark: numba's ``omp`` threading layer and the parallel pair loops at any thread count (its
+idle threads spin between the loops' calls; now a one-thread process runs serial twins,
+``render/pair_loops.py``), embreex for the rays (one at a time; now Dr.Jit's array ray tests,
+``render/rays_drjit.py``), and for ``--shadow`` the torch box test and second leg (now compiled
+loops; the torch ones stay as the references, ``render/shadow.py``). On a machine with a CUDA GPU one more row renders in one process
 on the GPU (``device='cuda'``, Dr.Jit's OptiX rays when Mitsuba is installed) against that
 machine's one-core reference.
 
@@ -21,7 +23,10 @@ Writes ``--out`` (default ``docs/results/render-throughput.csv``: ``device,threa
 reference_people_per_s,ratio``) and, beside it, the same with the machine and settings (``.json``).
 
     python benchmarks/render_throughput.py [--config benchmarks/configs/rooms/copyroom.yaml]
-        [--people 16] [--cores 1,2] [--out docs/results/render-throughput.csv]
+        [--people 16] [--cores 1,2] [--repeats 3] [--shadow] [--out CSV]
+
+``--shadow`` times the people's ``nlos_shadow`` under one spot instead (the fit's shadow step, its
+relay set's static visibility cast before the timing): ``docs/results/render-throughput-shadow.csv``.
 """
 
 from __future__ import annotations
@@ -41,10 +46,20 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-PATHS = {"new": (None, "auto"), "reference": ("omp", "embree"), "new-embree": (None, "embree")}
-"""(numba threading layer, ``RenderSettings.rays``) of each measured path (None: the package's
-choice): today's defaults, the path before them, and today's loops with the old rays (the two
-changes apart; in the .json only)."""
+PATHS = {"new": (None, "auto", False), "reference": ("omp", "embree", True), "new-embree": (None, "embree", False)}
+"""(numba threading layer, ``RenderSettings.rays``, legacy) of each measured path (None: the
+package's choice): today's defaults, the path before them, and today's loops with the old rays (the
+changes apart; in the .json only). ``legacy``: the loops as before (``pair_loops.PARALLEL`` at any
+thread count) and the shadow's torch crossing test and second leg (``render/shadow.py``'s references)."""
+
+
+def _legacy() -> None:
+    """Put back, in this process, the code paths the package kept as references (``PATHS``)."""
+    from nlos_spotlight.render import pair_loops, shadow
+
+    pair_loops.SERIAL = pair_loops.PARALLEL
+    shadow.cross_box = shadow.segments_cross_box
+    shadow.SpotShadow._second_leg_loops = shadow.SpotShadow._second_leg
 
 
 def build_room(config: str, work: Path):
@@ -75,8 +90,10 @@ def people(sb, n: int) -> list:
     return [sb._person(spec, floor_z)[1:] for spec in specs[first:first + n]]
 
 
-def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, barrier, queue) -> None:
-    """Build the renderer, wait for the others, render every person; put (seconds, people)."""
+def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, legacy: bool, shadow: bool, barrier,
+            queue) -> None:
+    """Build the renderer, wait for the others, render every person (their image samples, or with
+    ``shadow`` their ``nlos_shadow`` under the first spot, one relay set); put (seconds, people)."""
     import torch
 
     from nlos_spotlight.data.flash import FLASH_SPOT_SAMPLES, flash_scene
@@ -86,10 +103,25 @@ def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, barrier,
     from nlos_spotlight.scene.los import los_mesh
 
     torch.set_num_threads(1)
+    if legacy:
+        _legacy()
     scene = load_scene(room_dir)
     surfaces = StaticSurfaces(scene)
     los = los_mesh(surfaces.mesh, surfaces.engine, scene.camera, dcfg.los_vertices)
-    settings = dcfg.render_settings(device=device, rays=rays)
+    from nlos_spotlight.fit.config import FitConfig
+
+    settings = dcfg.render_settings(device=device, rays=rays, shadow_samples=FitConfig().shadow_samples)
+    if shadow:  # as the fit's shadow step: a renderer of the one chosen spot
+        r = Renderer(scene, settings, aim_points=los.centroids()[spots[:1]])
+        y = r.spot_vector(0)
+        with torch.no_grad():
+            r.render(y, people[0][0], torch.as_tensor(people[0][1]), ("nlos_shadow",))  # its relay set's visibility
+            barrier.wait()
+            t = time.perf_counter()
+            for person, tr in people:
+                r.render(y, person, torch.as_tensor(tr), ("nlos_shadow",))
+        queue.put((time.perf_counter() - t, len(people)))
+        return
     r = Renderer(scene, settings, aim_points=los.centroids())
     flash = Renderer(flash_scene(scene), dataclasses.replace(settings, spot_samples=settings.spot_samples
                                                              * FLASH_SPOT_SAMPLES), aim_points=scene.camera.look_at[None])
@@ -104,17 +136,19 @@ def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, barrier,
     queue.put((time.perf_counter() - t, len(people)))
 
 
-def throughput(room_dir: Path, dcfg, people, spots, processes: int, path: tuple, device: str = "cpu") -> float:
+def throughput(room_dir: Path, dcfg, people, spots, processes: int, path: tuple, device: str = "cpu",
+               shadow: bool = False) -> float:
     """People per second of ``processes`` concurrent renderers, each rendering all of ``people``;
-    ``path``: (numba threading layer, ray engine) as :data:`PATHS`."""
-    layer, rays = path
+    ``path``: as :data:`PATHS`."""
+    layer, rays, legacy = path
     ctx = mp.get_context("spawn")
     barrier, queue = ctx.Barrier(processes), ctx.Queue()
     old = os.environ.get("NUMBA_THREADING_LAYER")
     if layer is not None:
         os.environ["NUMBA_THREADING_LAYER"] = layer  # the children read it when they import numba
     try:
-        procs = [ctx.Process(target=_worker, args=(str(room_dir), dcfg, people, spots, device, rays, barrier, queue))
+        procs = [ctx.Process(target=_worker, args=(str(room_dir), dcfg, people, spots, device, rays, legacy, shadow, barrier,
+                                                      queue))
                  for _ in range(processes)]
         for p in procs:
             p.start()
@@ -136,8 +170,12 @@ def main() -> None:
     ap.add_argument("--people", type=int, default=16, help="people each process renders")
     ap.add_argument("--cores", default="1,2", help="CPU process counts (one thread each)")
     ap.add_argument("--repeats", type=int, default=3, help="runs of each path, interleaved; the median is kept")
-    ap.add_argument("--out", default=str(ROOT / "docs/results/render-throughput.csv"))
+    ap.add_argument("--shadow", action="store_true", help="time the people's nlos_shadow (the fit's shadow step) instead "
+                                                          "(default --out docs/results/render-throughput-shadow.csv)")
+    ap.add_argument("--out", help="CSV (default docs/results/render-throughput.csv)")
     args = ap.parse_args()
+    if args.out is None:
+        args.out = str(ROOT / "docs/results" / ("render-throughput-shadow.csv" if args.shadow else "render-throughput.csv"))
     import torch
 
     from nlos_spotlight.scene.los import los_mesh
@@ -160,7 +198,7 @@ def main() -> None:
             runs = {k: [] for k in PATHS}
             for _ in range(args.repeats):  # interleaved: a slow spell of the machine hits every path
                 for k, path in PATHS.items():
-                    runs[k].append(throughput(work / "room", dcfg, ppl, spots, n, path))
+                    runs[k].append(throughput(work / "room", dcfg, ppl, spots, n, path, shadow=args.shadow))
             got = {k: float(np.median(v)) for k, v in runs.items()}
             rows.append({"device": "cpu", "threads": n, "people_per_s": got["new"],
                          "reference_people_per_s": got["reference"], "ratio": got["new"] / got["reference"]})
@@ -169,8 +207,8 @@ def main() -> None:
                   f"{rows[-1]['ratio']:.2f}x (the new loops with the old rays: {got['new-embree']:.2f})", flush=True)
         if torch.cuda.is_available():
             card = torch.cuda.get_device_name(0)
-            gpu = throughput(work / "room", dcfg, ppl, spots, 1, PATHS["new"], "cuda")
-            ref = throughput(work / "room", dcfg, ppl, spots, 1, PATHS["reference"])
+            gpu = throughput(work / "room", dcfg, ppl, spots, 1, PATHS["new"], "cuda", args.shadow)
+            ref = throughput(work / "room", dcfg, ppl, spots, 1, PATHS["reference"], shadow=args.shadow)
             rows.append({"device": card, "threads": 1, "people_per_s": gpu, "reference_people_per_s": ref, "ratio": gpu / ref})
             print(f"{card}: {gpu:.2f} people/s, one-core reference {ref:.2f}: {gpu / ref:.2f}x")
     out = Path(args.out)
@@ -186,8 +224,9 @@ def main() -> None:
             "people_per_process": args.people, "body_samples_mean": nsamp, "spots": spots,
             "settings": {k: getattr(dcfg, k) for k in ("resolution", "pixel_footprint", "person_samples", "body_faces",
                                                          "spot_samples", "person_quadrature")},
-            "paths": {k: {"numba_threading_layer": v[0] or "workqueue (the package's)", "rays": v[1]}
+            "paths": {k: {"numba_threading_layer": v[0] or "workqueue (the package's)", "rays": v[1], "legacy": v[2]}
                       for k, v in PATHS.items()},
+            "measured": "nlos_shadow under the first spot" if args.shadow else "image samples (10 spots, flash, nlos_ambient)",
             "rows": rows, "all_paths_people_per_s": extra}
     out.with_suffix(".json").write_text(json.dumps(meta, indent=1))
     print(f"wrote {out}")
