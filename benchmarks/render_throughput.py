@@ -15,7 +15,11 @@ this benchmark: numba's ``omp`` threading layer and the parallel pair loops at a
 idle threads spin between the loops' calls; now a one-thread process runs serial twins,
 ``render/pair_loops.py``), embreex for the rays (one at a time; now Dr.Jit's array ray tests,
 ``render/rays_drjit.py``), and for ``--shadow`` the torch box test and second leg (now compiled
-loops; the torch ones stay as the references, ``render/shadow.py``). On a machine with a CUDA GPU one more row renders in one process
+loops; the torch ones stay as the references, ``render/shadow.py``). One thing of the old path is not
+put back: embreex's batches of 65,536 rays or more used every core whatever the process's thread
+budget (``render/rays._workers`` now follows torch's), so a one-process run was not one core and two
+processes oversubscribed two; both paths here keep to one thread a process, which favours the
+reference. On a machine with a CUDA GPU one more row renders in one process
 on the GPU (``device='cuda'``, Dr.Jit's OptiX rays when Mitsuba is installed) against that
 machine's one-core reference.
 

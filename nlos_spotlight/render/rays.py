@@ -23,13 +23,19 @@ _POOL = None
 
 
 def _workers() -> int:
-    return max(1, min(8, os.cpu_count() or 1))
+    """Threads for one batch of rays: the process's torch thread budget (a fit worker told to use
+    one thread keeps to one; two processes of two threads each on two cores fought), at most 8."""
+    import sys
+
+    torch = sys.modules.get("torch")
+    n = torch.get_num_threads() if torch is not None else (os.cpu_count() or 1)
+    return max(1, min(8, n))
 
 
 def _pool() -> ThreadPoolExecutor:
     global _POOL
     if _POOL is None:
-        _POOL = ThreadPoolExecutor(_workers(), thread_name_prefix="embree")
+        _POOL = ThreadPoolExecutor(8, thread_name_prefix="embree")  # threads start as batches need them
     return _POOL
 
 

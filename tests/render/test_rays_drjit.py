@@ -84,3 +84,19 @@ def test_auto_picks_drjit_where_it_runs():
     assert occlusion_engine(engine, "embree", "cpu") is engine
     with pytest.raises(ValueError, match="rays"):
         occlusion_engine(engine, "optix", "cpu")
+
+
+def test_torch_kernels_with_drjit_rays_equal_embree(glossy_corner_pair):
+    """The path a GPU takes (torch pair kernels, Dr.Jit rays), here on the CPU: the same images as the
+    torch kernels with embreex rays, within 1e-4."""
+    import dataclasses
+
+    from nlos_spotlight.render.transport import Renderer
+
+    torch_r, _, person = glossy_corner_pair(300, "float64")
+    gpu_like = Renderer(torch_r.scene, dataclasses.replace(torch_r.settings, rays="drjit"), aim_points=torch_r.aim_points)
+    assert isinstance(gpu_like.rays, rays_drjit.DrJitRays) and not gpu_like.settings.pair_loops
+    with torch.no_grad():
+        want = torch_r.transport_images(person, [0.05, -0.03], nlos_ambient=True)
+        got = gpu_like.transport_images(person, [0.05, -0.03], nlos_ambient=True)
+    assert float((got - want).norm() / want.norm()) < 1e-4
