@@ -19,9 +19,9 @@ so that both build the same rays; sums run in float64 and are returned in the ca
 
 The loops run on numba's ``workqueue`` threading layer unless ``NUMBA_THREADING_LAYER`` says
 otherwise: its idle threads sleep. Under the ``omp`` layer (numba's first choice) the idle OpenMP
-threads spin between the hundred-odd loop calls of a person, and two rendering processes on two
-cores (``nlos fit``'s workers) ran 3.1 times slower each than one alone: 1.40 against 0.45 s a
-person (``benchmarks/render_throughput.py`` measures both layers).
+threads spin between the hundred-odd loop calls of a person: two rendering processes on two cores
+(``nlos fit``'s workers) rendered 2.49 people/s together against 3.23 for one alone
+(``benchmarks/render_throughput.py``, its reference path).
 """
 
 from __future__ import annotations

@@ -167,9 +167,10 @@ def pair_rays(pa, na, pb, nb, dir_ab=None, cos_a=None, cos_b=None, need=None):
 RAY_BACKENDS = ("auto", "embree", "drjit")
 """Occlusion engines of the renderer's per-person rays: ``embree`` (:class:`RayEngine`, the
 reference), ``drjit`` (``rays_drjit.DrJitRays``: Mitsuba 3, CPU or CUDA), ``auto`` (drjit where
-Mitsuba runs, else embree). Measured at the fit's settings in the copy room, one person's image
-sample on one core: 0.51 s (embree) against 0.38 s (drjit), the images within 1e-4
-(``benchmarks/render_throughput.py``, ``tests/render/test_rays_drjit.py``)."""
+Mitsuba runs, else embree). Measured at the fit's settings in the copy room, image samples on one
+core: 3.00 people/s (drjit) against 2.06 (embree), the images within 1e-4
+(``benchmarks/render_throughput.py``: its .json's ``new`` and ``new-embree``;
+``tests/render/test_rays_drjit.py``)."""
 
 
 def occlusion_engine(static: RayEngine, backend: str = "auto", device: str = "cpu", threads: int | None = None):

@@ -1,14 +1,13 @@
 """Occlusion rays through Mitsuba 3 / Dr.Jit: the same answers as ``rays.RayEngine``, faster, and on a GPU.
 
 ``RayEngine`` (embreex) casts one ray at a time from a Cython loop; Mitsuba's ``Scene.ray_test``
-casts a whole array at once, in SIMD packets over all cores on the CPU (LLVM backend, Embree
-inside) and through OptiX on an NVIDIA GPU (CUDA backend). Measured on the copy room's fit
-settings (1.38 M shadow rays of one person, room and body, one core): 4.0 -> 6.8 M rays/s
-(``benchmarks/render_throughput.py`` measures the renderer's people per second either way).
+casts a whole array at once, in SIMD packets on the CPU (LLVM backend, Embree inside) and through
+OptiX on an NVIDIA GPU (CUDA backend). ``benchmarks/render_throughput.py`` measures the renderer's
+people per second either way (``rays.RAY_BACKENDS``).
 
 A person's rays must see the room and the body together. Instead of a new BVH over both for
-every person (embreex: 28 ms at 30,000 room faces), the room is a Mitsuba *shapegroup* built
-once and instanced beside each body (a few ms): :meth:`DrJitRays.with_body`.
+every person, the room is a Mitsuba *shapegroup* built once and instanced beside each body:
+:meth:`DrJitRays.with_body`.
 
 Rays are float32 in both engines (Embree's own precision); the tests hold the two engines'
 answers equal on the renderer's pair rays (``tests/render/test_rays_drjit.py``).
