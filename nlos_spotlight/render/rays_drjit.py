@@ -38,9 +38,9 @@ def available(device: str = "cpu") -> bool:
 
 
 def _mitsuba(device: str, threads: int | None = None):
-    """The mitsuba module with a variant for ``device`` usable: set it if none is set yet (the
-    objects made under a variant keep working when another is set later). ``threads``: Dr.Jit's
-    CPU pool size, set before the variant is (a pool made larger first keeps its threads)."""
+    """The mitsuba module with ``device``'s variant set (objects made under another variant keep
+    working, so the reference renderer's and these can alternate in one process). ``threads``:
+    Dr.Jit's CPU pool size, set before the variant is."""
     import drjit as dr
     import mitsuba as mi
 

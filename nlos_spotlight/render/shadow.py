@@ -12,7 +12,9 @@ partition's back) toward a visible point x_p, blocked by the body on x_s -> h or
 
 (1 - V_H V_H' = (1 - V_H) + V_H (1 - V_H')). Only a segment that crosses the body's bounding box
 can be blocked, so body rays are cast only there, and only the points h with blocked light or
-with a crossing segment toward the camera's points enter the sums.
+with a crossing segment toward the camera's points enter the sums. On a CPU the box test and the
+second leg over diffuse camera points run as compiled loops (``pair_loops.segments_cross_box``,
+``pair_loops.shadow_leg``); the torch versions here stay the reference they are tested against.
 
 Approximations, each small where this term matters: h is ``shadow_samples`` stratified area
 samples of all static surfaces; h reflects as a Lambertian of albedo kd + ks (the hidden
