@@ -17,6 +17,7 @@ import numpy as np
 from .args import parse_numbers
 from .errors import NlosError
 from .paths import input_dir, output_dir, output_file
+from .render.settings import DEVICES
 
 
 def _point(text: str, flag: str = "--spot-point") -> np.ndarray:
@@ -408,7 +409,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--fuse", action="store_true",
                    help="compile the torch pair kernels (torch.compile) for a GPU: same data; on a CPU the "
                         "compiled pair loops (render/pair_loops.py) serve instead and this changes nothing")
-    g.add_argument("--device", default="cpu", choices=("cpu", "cuda", "auto"),
+    g.add_argument("--device", default="cpu", choices=DEVICES,
                    help="where people are rendered: cuda runs the pair kernels and the rays (Dr.Jit/OptiX, with "
                         "Mitsuba installed) on the GPU; auto: cuda when there is one (default cpu)")
     g.set_defaults(func=cmd_generate)
@@ -467,7 +468,7 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--checkpoint", help="trained run whose IEN picks the spot (--policy ien)")
     f.add_argument("--burst", type=int, help="frames averaged per capture (default 16)")
     f.add_argument("--workers", type=int, help="processes rendering people (default 2)")
-    f.add_argument("--device", dest="render_device", choices=("cpu", "cuda", "auto"),
+    f.add_argument("--device", dest="render_device", choices=DEVICES,
                    help="where people are rendered (default cpu): cuda runs the pair kernels and the rays on the GPU "
                         "(nlos generate --device); training uses a GPU whenever there is one")
     f.add_argument("--capture-preset", help="capture variation to train for: tripod (default), rough, or ideal "

@@ -103,8 +103,10 @@ class FitConfig:
             raise NlosError(f"--clothing: expected 'camera' or 'dataset', got {self.clothing!r}")
         if not 0 <= self.pixel_footprint <= 64 or isinstance(self.pixel_footprint, bool):
             raise NlosError(f"fit: pixel_footprint must be an integer from 0 (off) to 64, got {self.pixel_footprint!r}")
-        if self.render_device not in ("cpu", "cuda", "auto"):
-            raise NlosError(f"--device: expected cpu, cuda or auto, got {self.render_device!r}")
+        from ..render.settings import DEVICES
+
+        if self.render_device not in DEVICES:
+            raise NlosError(f"--device: expected one of {', '.join(DEVICES)}, got {self.render_device!r}")
         if self.workers > MAX_WORKERS:
             raise NlosError(f"--workers: at most {MAX_WORKERS} processes (each holds a room's renderer), got {self.workers}")
         if self.people > 100_000 or self.resolution > 256 or self.burst_frames > 1000:

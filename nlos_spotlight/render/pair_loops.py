@@ -73,6 +73,22 @@ def need_counts(pa, na, front, o, nb, closed, akey, stride):
     return out
 
 
+@njit(cache=True, inline="always")
+def _write_ray(pa, na, pb, nb, a, b, dx, dy, dz, sa, sb, org, dirs, length, k):
+    """Ray k of the segment a -> b (unit direction d, sides sa, sb of the ends' surfaces facing the
+    other end): both ends pushed off their surfaces as in ``rays.pair_rays``, the far one pulled in."""
+    ox = pa[a, 0] + EPS * (sa * na[a, 0] + dx)
+    oy = pa[a, 1] + EPS * (sa * na[a, 1] + dy)
+    oz = pa[a, 2] + EPS * (sa * na[a, 2] + dz)
+    ex = pb[b, 0] + EPS * (sb * nb[b, 0] - dx) - ox
+    ey = pb[b, 1] + EPS * (sb * nb[b, 1] - dy) - oy
+    ez = pb[b, 2] + EPS * (sb * nb[b, 2] - dz) - oz
+    el = math.sqrt(ex * ex + ey * ey + ez * ez)
+    org[k, 0], org[k, 1], org[k, 2] = ox, oy, oz
+    dirs[k, 0], dirs[k, 1], dirs[k, 2] = ex / el, ey / el, ez / el
+    length[k] = max(el - EPS, 0.0)
+
+
 @njit(cache=True, parallel=True)
 def shadow_rays(pa, na, front, o, nb, closed, akey, stride, start):
     """The shadow rays of the pairs that need one, a-major: float32 origins (M, 3), unit
@@ -95,16 +111,7 @@ def shadow_rays(pa, na, front, o, nb, closed, akey, stride, start):
             dx, dy, dz = dx / r, dy / r, dz / r
             sa = np.sign(dx * na[a, 0] + dy * na[a, 1] + dz * na[a, 2])
             sb = np.sign(-(dx * nb[b, 0] + dy * nb[b, 1] + dz * nb[b, 2]))
-            ox = pa[a, 0] + EPS * (sa * na[a, 0] + dx)
-            oy = pa[a, 1] + EPS * (sa * na[a, 1] + dy)
-            oz = pa[a, 2] + EPS * (sa * na[a, 2] + dz)
-            ex = o[b, 0] + EPS * (sb * nb[b, 0] - dx) - ox
-            ey = o[b, 1] + EPS * (sb * nb[b, 1] - dy) - oy
-            ez = o[b, 2] + EPS * (sb * nb[b, 2] - dz) - oz
-            el = math.sqrt(ex * ex + ey * ey + ez * ez)
-            org[k, 0], org[k, 1], org[k, 2] = ox, oy, oz
-            dirs[k, 0], dirs[k, 1], dirs[k, 2] = ex / el, ey / el, ez / el
-            length[k] = max(el - EPS, 0.0)
+            _write_ray(pa, na, o, nb, a, b, dx, dy, dz, sa, sb, org, dirs, length, k)
             idx[k] = b
             k += 1
     return org, dirs, length, idx
@@ -292,18 +299,7 @@ def shadow_leg(rp, rn, kd, cos_c, hp, hn, area, l_blk, l_rest, blk_any, cross, v
                 rad[a, ch] += c[ch] * w * l_blk[side, b, ch]
             if not cross[a, b]:
                 continue
-            sa = np.sign(cos_a)
-            sb = np.sign(cos_b)
-            ox = rp[a, 0] + EPS * (sa * rn[a, 0] + dx)
-            oy = rp[a, 1] + EPS * (sa * rn[a, 1] + dy)
-            oz = rp[a, 2] + EPS * (sa * rn[a, 2] + dz)
-            ex = hp[b, 0] + EPS * (sb * hn[b, 0] - dx) - ox
-            ey = hp[b, 1] + EPS * (sb * hn[b, 1] - dy) - oy
-            ez = hp[b, 2] + EPS * (sb * hn[b, 2] - dz) - oz
-            el = math.sqrt(ex * ex + ey * ey + ez * ez)
-            org[k, 0], org[k, 1], org[k, 2] = ox, oy, oz
-            dirs[k, 0], dirs[k, 1], dirs[k, 2] = ex / el, ey / el, ez / el
-            length[k] = max(el - EPS, 0.0)
+            _write_ray(rp, rn, hp, hn, a, b, dx, dy, dz, np.sign(cos_a), np.sign(cos_b), org, dirs, length, k)
             row[k] = a
             for ch in range(3):
                 lost[k, ch] = c[ch] * w * l_rest[side, b, ch]

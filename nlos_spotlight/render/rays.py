@@ -8,6 +8,7 @@ in by a relative epsilon and origins are pushed off their surface.
 from __future__ import annotations
 
 import os
+import sys
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -25,9 +26,7 @@ _POOL = None
 def _workers() -> int:
     """Threads for one batch of rays: the process's torch thread budget (a fit worker told to use
     one thread keeps to one; two processes of two threads each on two cores fought), at most 8."""
-    import sys
-
-    torch = sys.modules.get("torch")
+    torch = sys.modules.get("torch")  # not imported here: rays serve torch-free callers too
     n = torch.get_num_threads() if torch is not None else (os.cpu_count() or 1)
     return max(1, min(8, n))
 
@@ -100,12 +99,7 @@ class RayEngine:
         Surface points are offset along their normals toward the other end so
         that a segment never hits the triangle it starts or ends on.
         """
-        a = _offset(a, b, normal_a)
-        b = _offset(b, a, normal_b)
-        d = b - a
-        length = np.linalg.norm(d, axis=1)
-        d = d / np.maximum(length, 1e-30)[:, None]
-        return self.occluded_rays(a, d, np.maximum(length - EPS, 0.0))
+        return self.occluded_rays(*segment_rays(a, b, normal_a, normal_b))
 
     def occluded_rays(self, origins: np.ndarray, dirs: np.ndarray, lengths: np.ndarray) -> np.ndarray:
         """(N,) bool: a triangle lies within ``lengths`` along each unit direction."""
@@ -124,6 +118,18 @@ class RayEngine:
         else:  # Embree releases the GIL for most of a batch: threads scale on a few cores
             list(_pool().map(run, slices))
         return out
+
+
+def segment_rays(a: np.ndarray, b: np.ndarray, normal_a: np.ndarray | None = None,
+                 normal_b: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(origins, unit directions, lengths) of the open segments a -> b, each end pushed off its
+    surface toward the other (:func:`_offset`) and the far end pulled in by :data:`EPS`."""
+    a = _offset(a, b, normal_a)
+    b = _offset(b, a, normal_b)
+    d = b - a
+    length = np.linalg.norm(d, axis=1)
+    d = d / np.maximum(length, 1e-30)[:, None]
+    return a, d, np.maximum(length - EPS, 0.0)
 
 
 def _offset(p: np.ndarray, toward: np.ndarray, normal: np.ndarray | None) -> np.ndarray:

@@ -37,6 +37,14 @@ def available(device: str = "cpu") -> bool:
         return False
 
 
+@functools.lru_cache(maxsize=None)
+def _quiet() -> None:
+    """Dr.Jit's log at errors only: not the kernel cache's races between the fit's processes."""
+    import drjit as dr
+
+    dr.set_log_level(dr.LogLevel.Error)
+
+
 def _mitsuba(device: str, threads: int | None = None):
     """The mitsuba module with ``device``'s variant set (objects made under another variant keep
     working, so the reference renderer's and these can alternate in one process). ``threads``:
@@ -44,7 +52,7 @@ def _mitsuba(device: str, threads: int | None = None):
     import drjit as dr
     import mitsuba as mi
 
-    dr.set_log_level(dr.LogLevel.Error)  # not the kernel cache's races between the fit's processes
+    _quiet()
     if threads is not None and dr.thread_count() != threads:
         dr.set_thread_count(threads)
     want = VARIANTS[device]
@@ -123,14 +131,9 @@ class DrJitRays:
 
     def occluded(self, a: np.ndarray, b: np.ndarray, normal_a=None, normal_b=None) -> np.ndarray:
         """(N,) bool: something blocks the open segment a -> b (ends pushed off as ``RayEngine.occluded``)."""
-        from .rays import EPS, _offset
+        from .rays import segment_rays
 
-        a = _offset(a, b, normal_a)
-        b = _offset(b, a, normal_b)
-        d = b - a
-        length = np.linalg.norm(d, axis=1)
-        d = d / np.maximum(length, 1e-30)[:, None]
-        return self.occluded_rays(a, d, np.maximum(length - EPS, 0.0))
+        return self.occluded_rays(*segment_rays(a, b, normal_a, normal_b))
 
 
 __all__ = ["CHUNK", "DrJitRays", "VARIANTS", "available"]

@@ -62,8 +62,12 @@ def cross_box(a: torch.Tensor, b: torch.Tensor, lo: torch.Tensor, hi: torch.Tens
         return segments_cross_box(a, b, lo, hi)
     from .pair_loops import segments_cross_box as loop
 
-    f64 = lambda x: x.detach().double().numpy()
-    return torch.from_numpy(loop(f64(a), f64(b), f64(lo), f64(hi)))
+    return torch.from_numpy(loop(_f64(a), _f64(b), _f64(lo), _f64(hi)))
+
+
+def _f64(x: torch.Tensor) -> np.ndarray:
+    """A CPU tensor as the float64 array the compiled loops take."""
+    return x.detach().double().numpy()
 
 
 def two_sided(m: torch.Tensor, side: torch.Tensor, light: torch.Tensor) -> torch.Tensor:
@@ -191,11 +195,10 @@ class SpotShadow:
         compiled pass (``pair_loops.shadow_leg``) and the body rays of the crossing pairs only."""
         from .pair_loops import shadow_leg
 
-        f64 = lambda x: x.detach().double().numpy()
         rad, org, dirs, length, row, lost = shadow_leg(
-            f64(rec.pts["pos"][sl]), f64(rec.pts["normal"][sl]), f64(rec.pts["kd"][sl]), f64(cos_c.reshape(-1)),
-            f64(hk["pos"]), f64(hk["normal"]), f64(ak), f64(l_blk), f64(l_rest), (l_blk.sum((0, 2)) > 0).numpy(),
-            cross.numpy(), f64(vs_static))
+            _f64(rec.pts["pos"][sl]), _f64(rec.pts["normal"][sl]), _f64(rec.pts["kd"][sl]), _f64(cos_c.reshape(-1)),
+            _f64(hk["pos"]), _f64(hk["normal"]), _f64(ak), _f64(l_blk), _f64(l_rest), (l_blk.sum((0, 2)) > 0).numpy(),
+            cross.numpy(), _f64(vs_static))
         if len(row):
             hit = body.occluded_rays(org, dirs, length)
             np.add.at(rad, row[hit], lost[hit])
