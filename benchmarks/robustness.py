@@ -12,8 +12,9 @@ draws for every condition:
 * capture effects (``render.variation.EFFECTS``: camera-shift, camera-roll, projector-gain,
   spot-drift, ambient-gain, exposure), each alone at ``--magnitudes`` times the ``tripod`` preset;
 * the camera photographs (:func:`camera_photographs`, rendered apart from the fit's sampling):
-  ``pixel-integrated``: the person's light integrated over each pixel (16 x 16 footprint
-  sub-samples, :data:`CAMERA_FOOTPRINT`); ``pixel-integrated-2x2``: 2 x 2 sub-samples, each
+  ``pixel-integrated``: the person's light integrated over each pixel (8 x 8 footprint
+  sub-samples jittered in their cells, :data:`CAMERA_FOOTPRINT`; ``--camera-grid``: 16 x 16 at the
+  cells' centres, the photographs before); ``pixel-integrated-2x2``: 2 x 2 sub-samples, each
   seeing the whole body (as the issue measured; ``--pixel-samples``; not converged: 14% from
   8 x 8 in the copy room); ``shadow``: the fit's scattered light plus the spot light the body
   blocks (``nlos_shadow``, 8,192 relay points, in every real with-minus-without photograph);
@@ -79,10 +80,14 @@ CLOTHING = {"clothing-dark": 0.05, "clothing-light": 0.9}
 SHADOW_SAMPLES = 1024
 """Static points relaying the light the body blocks (the renderer's default 4,096 at 2 x 2 sub-samples
 a pixel costs about a minute a person: 67 million shadow rays at 4 x 4)."""
-CAMERA_FOOTPRINT = 16
-"""The camera photographs' person light: integrated over each pixel from 16 x 16 sub-samples
-(footprint sampling, ``RenderSettings.pixel_footprint``: unbiased for the 16 x 16 render, whose
-own bias is about 1.5% in the copy room), with pixel offsets drawn apart from the fit's."""
+CAMERA_FOOTPRINT = 8
+"""The camera photographs' person light: integrated over each pixel from 8 x 8 sub-samples jittered
+in their cells (``RenderSettings.footprint_jitter``: an unbiased estimate of the pixel's mean light,
+drawn apart from any fit's; ``--camera-draws`` averages independent draws)."""
+GRID_FOOTPRINT = 16
+"""``--camera-grid``: the camera photographs before jittering (16 x 16 sub-samples at their cells'
+centres: unbiased for the 16 x 16 render, which is itself about 3.6% from the pixel's mean in the
+copy room, the centres' bias falling as 1/n)."""
 CAMERA_SHADOW_SAMPLES = 8192
 """Static points relaying the light the body blocks in the camera photographs (twice the fit's)."""
 CAMERA_SEED = 7
@@ -175,7 +180,8 @@ def fit_reproduction(room: Room, cache: Path) -> dict[str, np.ndarray]:
     from nlos_spotlight.data.store import atomic_npz
 
     cfg = fit_config(room.path)
-    path = cache / room.name / f"fit-{len(room.indices)}-f{cfg.pixel_footprint}-s{cfg.shadow_samples}.npz"
+    jit = "j" if cfg.footprint_jitter else ""
+    path = cache / room.name / f"fit-{len(room.indices)}-f{cfg.pixel_footprint}{jit}-s{cfg.shadow_samples}.npz"
     if (got := cached(path, room)) is not None:
         return {k: v for k, v in got.items() if k != "indices"}
     builder, dcfg = room_builder(room.path, cfg)
@@ -257,15 +263,16 @@ def world_conditions(room: Room, cache: Path, magnitudes: list[float], draws: in
     return rows
 
 
-def camera_photographs(room: Room, cache: Path, draws: int = 1) -> dict[str, np.ndarray]:
+def camera_photographs(room: Room, cache: Path, draws: int = 1, grid: bool = False) -> dict[str, np.ndarray]:
     """The held-out people as a camera records them (cached): their light integrated over each pixel
     (:data:`CAMERA_FOOTPRINT`) and the light their bodies block (:data:`CAMERA_SHADOW_SAMPLES`),
     rendered apart from the fit's own sampling (:data:`CAMERA_SEED`): ``cam_nlos``,
     ``cam_nlos_ambient``, ``cam_nlos_shadow``. A real photograph holds no Monte Carlo noise: with
     ``draws`` > 1 each is the mean of that many independent draws (pixel offsets and relay points
     apart), and ``cam_noise_nlos`` / ``cam_noise_shadow`` (N,) the relative L2 standard error of
-    the mean left in each person's light and shadow (from the draws' spread)."""
-    parts = [_camera_draw(room, cache, d) for d in range(draws)]
+    the mean left in each person's light and shadow (from the draws' spread). ``grid``: the recipe
+    before (:data:`GRID_FOOTPRINT`)."""
+    parts = [_camera_draw(room, cache, d, grid) for d in range(draws)]
     out = {k: np.mean([p[k] for p in parts], 0) for k in ("cam_nlos", "cam_nlos_ambient", "cam_nlos_shadow")}
     out["seconds"] = np.float64(sum(float(p["seconds"]) for p in parts))
     if draws > 1:
@@ -276,17 +283,18 @@ def camera_photographs(room: Room, cache: Path, draws: int = 1) -> dict[str, np.
     return out
 
 
-def _camera_draw(room: Room, cache: Path, draw: int) -> dict[str, np.ndarray]:
+def _camera_draw(room: Room, cache: Path, draw: int, grid: bool = False) -> dict[str, np.ndarray]:
     """Draw ``draw`` of :func:`camera_photographs` (cached; draw 0 is the benchmark's first)."""
     from nlos_spotlight.data.store import atomic_npz
     from nlos_spotlight.render.settings import RenderSettings
 
     tail = f"-d{draw}" if draw else ""
-    path = cache / room.name / f"camera-{len(room.indices)}-f{CAMERA_FOOTPRINT}-s{CAMERA_SHADOW_SAMPLES}{tail}.npz"
+    n = GRID_FOOTPRINT if grid else CAMERA_FOOTPRINT
+    path = cache / room.name / f"camera-{len(room.indices)}-f{n}{'' if grid else 'j'}-s{CAMERA_SHADOW_SAMPLES}{tail}.npz"
     if (got := cached(path, room)) is not None:
         return got
     builder, dcfg = room_builder(room.path, fit_config(room.path))
-    rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=CAMERA_FOOTPRINT,
+    rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=n, footprint_jitter=not grid,
                         spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
                         shadow_samples=CAMERA_SHADOW_SAMPLES, footprint_seed=CAMERA_SEED + 100 * draw,
                         relay_offset=(0.5 + draw * PHI) % 1.0, device="cpu")
@@ -718,6 +726,8 @@ def main(argv=None) -> int:
                                                             "(WORLD_EFFECTS; empty: none; each renders the people again)")
     ap.add_argument("--camera-draws", type=int, default=1, help="independent draws averaged in each camera "
                                                                  "photograph (its Monte Carlo noise over sqrt(draws))")
+    ap.add_argument("--camera-grid", action="store_true", help="the camera photographs as before jittering: "
+                    "16 x 16 sub-samples at their cells' centres (biased about 3.6%% in the copy room)")
     ap.add_argument("--fine", action="store_true", help="also the camera photographs with the person's light at "
                                                          "32 x 32 (camera-f32: is 16 x 16 converged?)")
     ap.add_argument("--world-draws", type=int, default=1, help="independent worlds per effect and magnitude, "
@@ -755,7 +765,8 @@ def main(argv=None) -> int:
         if not (args.no_render or args.world_only):
             fine = fine_light(room, Path(args.cache)) if args.fine else {}
             people = {**fine, **camera_people(room, Path(args.cache), args.pixel_samples),
-                      **camera_photographs(room, Path(args.cache), args.camera_draws), **fit_reproduction(room, Path(args.cache))}
+                      **camera_photographs(room, Path(args.cache), args.camera_draws, args.camera_grid),
+                      **fit_reproduction(room, Path(args.cache))}
             if args.mitsuba > 0:
                 people.update(mitsuba_people(room, Path(args.cache), args.mitsuba, args.mitsuba_people))
                 notes.setdefault(f"{name}:{reading}", {})["mitsuba_noise_median"] = float(

@@ -237,6 +237,8 @@ def cmd_fit(args: argparse.Namespace) -> None:
                                              "pixel_footprint", "shadow_samples", "shadow_relay", "clothing",
                                              "world_variation", "ceiling_people", "render_device")
                if getattr(args, k) is not None}
+    if args.footprint_sampling is not None:
+        changes["footprint_jitter"] = args.footprint_sampling == "jittered"
     if "burst" in changes:
         changes["burst_frames"] = changes.pop("burst")
     if args.no_projection:
@@ -476,6 +478,9 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--pixel-footprint", type=int, help="the person's light integrated over each pixel from N x N "
                                                        "sub-samples (default 8); 0: at the pixel's centre (the "
                                                        "recipe before it)")
+    f.add_argument("--footprint", dest="footprint_sampling", choices=("grid", "jittered"),
+                   help="the footprint's sub-samples at their cells' centres (grid) or jittered in them, a draw "
+                        "per set of people (jittered: an unbiased pixel mean)")
     f.add_argument("--shadow-samples", type=int, help="static points relaying the spot light each body blocks "
                                                       "(default 4096); 0: the shadow term left out")
     f.add_argument("--shadow-relay", choices=("per-person", "fixed"), help="the shadow's relay points drawn "

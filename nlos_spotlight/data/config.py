@@ -52,6 +52,9 @@ class DatasetConfig:
     pixel_footprint: int = 0
     """Renderer: n > 0 integrates the person terms over each pixel's footprint from n x n sub-samples
     sharing out the body samples (``RenderSettings.pixel_footprint``), instead of the above."""
+    footprint_jitter: bool = False
+    """Renderer: footprint sub-samples jittered in their cells (``RenderSettings.footprint_jitter``),
+    a draw per set of people (:func:`footprint_draw`), so that no fixed sampling pattern is learned."""
     spot_samples: int = 16
     """Renderer: projector rays per candidate spot."""
     person_samples: int = 3500
@@ -86,9 +89,29 @@ class DatasetConfig:
         from ..render.settings import RenderSettings
 
         own = dict(pixel_samples=self.pixel_samples, transport_pixel_samples=self.transport_pixel_samples,
-                   pixel_footprint=self.pixel_footprint, spot_samples=self.spot_samples,
+                   pixel_footprint=self.pixel_footprint, footprint_jitter=self.footprint_jitter,
+                   spot_samples=self.spot_samples,
                    person_samples=self.person_samples, device="cpu")
         return RenderSettings(**{**own, **overrides})
+
+
+SET_BLOCK = 100
+"""Samples per block of sampling sets: a fit's shadow file holds one block (``fit/shadow.py``)."""
+SETS_PER_BLOCK = 8
+"""Sampling sets a block draws (shadow relay points, jittered footprints): each set's precompute
+(static visibility, camera sub-samples) is done once and shared by the block's samples that use it."""
+
+
+def sampling_set(k: int) -> int:
+    """The sampling set of dataset sample ``k``: set ``k mod SETS_PER_BLOCK`` of its block of
+    :data:`SET_BLOCK` (consecutive samples use different sets, every block its own)."""
+    return k // SET_BLOCK * SETS_PER_BLOCK + k % SETS_PER_BLOCK
+
+
+def footprint_draw(cfg: "DatasetConfig", k: int) -> int | None:
+    """The footprint draw sample ``k``'s person terms are rendered with (``Renderer.use_footprint``):
+    its sampling set when ``footprint_jitter``, else None (the renderer's one fixed set)."""
+    return sampling_set(k) if cfg.footprint_jitter and cfg.pixel_footprint > 0 else None
 
 
 PRESETS = {

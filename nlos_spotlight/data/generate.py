@@ -71,7 +71,7 @@ def versions() -> dict[str, str]:
 
 
 FORMAT_1_VALUES = {"transport_samples_per_scene": -1, "stored_spots_top": 6, "trajectories_per_train_scene": 0,
-                   "room": "", "extra_spots": []}
+                   "room": "", "extra_spots": [], "footprint_jitter": False}
 """Config fields added since nlos-dataset/1, at the values that mean what an older dataset holds (its
 config.json lacks them): a run with those values may continue it; other missing fields differ."""
 

@@ -60,7 +60,7 @@ class SceneBuilder:
         whose index is i mod n, so n processes can share one room (``nlos fit``); every part first
         makes sure the room, its full-transport samples and ``spots.json`` exist (run part 0 alone
         first so the others find them), and whichever part finds every file there writes ``done.json``."""
-        from .config import sample_count, transport_count
+        from .config import footprint_draw, sample_count, transport_count
 
         n = sample_count(self.cfg, self.plan.split)
         m = transport_count(self.cfg, self.plan.split)
@@ -87,7 +87,7 @@ class SceneBuilder:
         for k, spec in enumerate(specs[:m]):
             path = self.dir / "samples" / f"{k:05d}.npz"
             if not _readable(path, "flash_nlos"):
-                atomic_npz(path, **self._sample(renderer, flash, spec, floor_z))
+                atomic_npz(path, **self._sample(renderer, flash, spec, floor_z, footprint_draw(self.cfg, k)))
             advance()
         if m < n:
             spots = self._stored_spots(len(los.faces))
@@ -96,7 +96,8 @@ class SceneBuilder:
             for k, spec in enumerate(specs[m:], start=m):
                 path = self.dir / "images" / f"{k:05d}.npz"
                 if k % parts == i and not _readable(path, "nlos_spots"):
-                    atomic_npz(path, **self._image_sample(renderer, flash, spec, floor_z, spots))
+                    atomic_npz(path, **self._image_sample(renderer, flash, spec, floor_z, spots,
+                                                          footprint_draw(self.cfg, k)))
                 advance()
             if any(not (self.dir / "images" / f"{k:05d}.npz").exists() for k in range(m, n)):
                 return  # another part is still rendering; the last one to finish writes done.json
@@ -206,6 +207,8 @@ class SceneBuilder:
         other ``settings`` or components (convergence and robustness studies): component name ->
         (len(indices), H, W, 3) float64. The people are the dataset's (the same seeded draws);
         ``relay_offsets``: each one's ``nlos_shadow`` relay offset (``settings.relay_offset`` if None);
+        with ``settings.footprint_jitter`` each is rendered with its own footprint draw, its sampling
+        set (``config.sampling_set``: the draw the dataset renders it with, under that seed);
         ``world``: a scene to render them in instead of the room (``world.mismatch``: the room as it
         differs from its scan), the same people at the same places."""
         room, specs = self._scan_people()
@@ -216,9 +219,12 @@ class SceneBuilder:
         offsets = [None] * len(indices) if relay_offsets is None else list(relay_offsets)
         if len(offsets) != len(indices):
             raise ValueError(f"relay_offsets: {len(offsets)} for {len(indices)} samples")
+        from .config import sampling_set
+
         for k, off in zip(indices, offsets):
             _, person, t = self._person(specs[k], scene.hidden_region.floor_z)
-            res = r.render(y, person, torch.as_tensor(t), components, relay_offset=off)
+            draw = sampling_set(k) if settings.footprint_jitter else None
+            res = r.render(y, person, torch.as_tensor(t), components, relay_offset=off, footprint_draw=draw)
             for c in components:
                 out[c].append(res[c].double().cpu().numpy())
         return {c: np.stack(v) for c, v in out.items()}
@@ -249,10 +255,10 @@ class SceneBuilder:
                 "height_m": np.float64(p.height_m), "albedo": np.asarray(p.albedo, np.float64),
                 "trajectory": np.int64(spec["trajectory"]), "frame": np.int64(spec["frame"])}
 
-    def _sample(self, r: Renderer, flash: Renderer, spec: dict, floor_z: float) -> dict:
+    def _sample(self, r: Renderer, flash: Renderer, spec: dict, floor_z: float, draw: int | None = None) -> dict:
         body, person, t = self._person(spec, floor_z)
         # every candidate, the flash and nlos_ambient through one person -> pixel pass
-        f = r.transport_images(person, t, also=(flash,), nlos_ambient=True)
+        f = r.transport_images(person, t, also=(flash,), nlos_ambient=True, footprint_draw=draw)
         u, v, err = low_rank(f[:r.num_spots], self.cfg.transport_rank)
         flash_nlos, amb = f[r.num_spots], f[r.num_spots + 1]
         return {"transport_u": u, "transport_v": v, "transport_error": np.float64(err),
@@ -260,12 +266,15 @@ class SceneBuilder:
                 **self._labels(spec),
                 "body_vertices": (body.vertices + t).astype(np.float32), "body_faces": body.faces.astype(np.int32)}
 
-    def _image_sample(self, r: Renderer, flash: Renderer, spec: dict, floor_z: float, spots: list[int]) -> dict:
+    def _image_sample(self, r: Renderer, flash: Renderer, spec: dict, floor_z: float, spots: list[int],
+                      draw: int | None = None) -> dict:
         """The person's light under the K stored spots only (their columns of F, traced alone),
-        float16 with power-of-two scales (``store.f16_encode``); no body mesh."""
+        float16 with power-of-two scales (``store.f16_encode``); no body mesh. ``draw``: its
+        footprint draw (``config.footprint_draw``)."""
         _, person, t = self._person(spec, floor_z)
         # the K spots, the flash and nlos_ambient through one person -> pixel pass
-        f = r.transport_images(person, t, spots, also=(flash,), nlos_ambient=True).double().numpy()
+        f = r.transport_images(person, t, spots, also=(flash,), nlos_ambient=True,
+                               footprint_draw=draw).double().numpy()
         k = len(spots)
         out = {}
         for name, a, per_spot in (("nlos_spots", f[:k], True), ("flash_nlos", f[k], False),

@@ -46,6 +46,11 @@ class FitConfig:
     """The person's light integrated over each pixel as a camera does: n x n sub-samples sharing out
     the body samples (``RenderSettings.pixel_footprint``; 0: at the pixel's centre, the recipe
     before it, which room models learned as a pattern: benchmarks/robustness.py)."""
+    footprint_jitter: bool = False
+    """The footprint's sub-samples jittered in their cells, a draw per set of people
+    (``data.config.footprint_draw``; the shadow's relay sets use the same sets), instead of at the
+    cells' centres: the centres' footprint mean is biased (about 7% at 8 x 8 in the copy room,
+    falling as 1/n) and one fixed pattern for every person (benchmarks/robustness.py)."""
     shadow_samples: int = 4096
     """Static points relaying the spot light each person's body blocks (``nlos_shadow``, in every real
     with-minus-without photograph), rendered under the chosen spot and added to every training
@@ -153,7 +158,7 @@ MAX_WORKERS = 256
 """Most rendering processes a fit starts (each holds about 1 GB: the room's renderer)."""
 
 
-BEFORE = {"capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "shadow_samples": 0,
+BEFORE = {"capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "footprint_jitter": False, "shadow_samples": 0,
           "clothing": "dataset", "shadow_relay": "fixed", "world_variation": "ideal", "ceiling_people": 0}
 """What a room model fitted before each of these settings existed did (see their docstrings)."""
 

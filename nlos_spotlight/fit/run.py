@@ -50,7 +50,8 @@ def dataset_config(cfg: FitConfig, room_dir: Path, extra_spots: list[int] | None
                          samples_per_scene=cfg.samples, transport_samples_per_scene=cfg.transport_people,
                          trajectories_per_test_scene=0, trajectories_per_train_scene=0, resolution=cfg.resolution,
                          los_vertices=cfg.los_vertices, body_faces=cfg.body_faces, person_samples=cfg.person_samples,
-                         person_quadrature=cfg.person_quadrature, pixel_footprint=cfg.pixel_footprint, room=str(Path("..") / room_dir.name),
+                         person_quadrature=cfg.person_quadrature, pixel_footprint=cfg.pixel_footprint,
+                         footprint_jitter=cfg.footprint_jitter, room=str(Path("..") / room_dir.name),
                          extra_spots=list(extra_spots or []))
 
 

@@ -25,14 +25,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ..data.config import SET_BLOCK as BLOCK, SETS_PER_BLOCK as RELAY_SETS
 from ..errors import NlosError
 from .config import FitConfig
 
-BLOCK = 100
-"""People per shadow file (a worker's unit of work: one renderer precompute per block)."""
-RELAY_SETS = 8
-"""Sets of relay points a block draws (``shadow_relay='per-person'``): each set's static visibility
-is cast once and shared by the block's people that use it (about 1/8 of them)."""
+# BLOCK: people per shadow file (a worker's unit of work: one renderer precompute per block).
+# RELAY_SETS: sets of relay points a block draws (``shadow_relay='per-person'``): each set's static
+# visibility is cast once and shared by the block's people that use it (about 1/8 of them); a
+# jittered footprint draws its sub-samples per the same sets (``data.config.sampling_set``).
 PHI = 0.6180339887498949
 """Golden-ratio step between blocks' offsets: every block's sets differ from every other's."""
 
@@ -143,9 +143,10 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
 
     out, d = Path(out), shadow_dir(out)
     meta = {"face": int(spot["face"]), "aim": [float(a) for a in spot["aim"]], "shadow_samples": cfg.shadow_samples,
-            "pixel_footprint": cfg.pixel_footprint, "shadow_relay": cfg.shadow_relay,
+            "pixel_footprint": cfg.pixel_footprint, "footprint_jitter": cfg.footprint_jitter,
+            "shadow_relay": cfg.shadow_relay,
             "world_variation": cfg.world_variation}
-    stored = {"shadow_relay": "fixed", "world_variation": "ideal", **json.loads((d / "meta.json").read_text())} \
+    stored = {"shadow_relay": "fixed", "world_variation": "ideal", "footprint_jitter": False, **json.loads((d / "meta.json").read_text())} \
         if (d / "meta.json").exists() else meta
     if stored != meta:
         for p in d.glob("block-*.npz"):  # another spot or setting: nothing to keep

@@ -2,7 +2,8 @@
 
 Image row 0 is the top, column 0 the left, as a photograph from the camera
 shows it; ``fov_deg`` is horizontal. A pixel is the mean radiance over its
-footprint, estimated with ``n x n`` stratified sub-samples (cell centers).
+footprint, estimated with ``n x n`` stratified sub-samples: at the cell centers, or jittered
+(uniform within their cells), which makes the estimate of the footprint's mean unbiased.
 """
 
 from __future__ import annotations
@@ -22,20 +23,25 @@ def camera_frame(cam: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return fwd, right, up
 
 
-def pixel_rays(cam: Camera, n: int = 1) -> tuple[np.ndarray, np.ndarray]:
+def pixel_rays(cam: Camera, n: int = 1, jitter: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Unit directions of shape (H, W, n*n, 3) and the origin (3,).
 
-    Sub-samples sit at the centers of an n x n grid inside each pixel.
+    Sub-samples sit at the centers of an n x n grid inside each pixel, or with ``jitter``
+    (H, W, n, n, 2) in [0, 1) (x right, y down within the cell) anywhere in their cells: the
+    stratified estimator whose expectation is the footprint's exact mean.
     """
     fwd, right, up = camera_frame(cam)
     tan_x = np.tan(np.radians(cam.fov_deg) / 2)
     tan_y = tan_x * cam.height / cam.width
-    sub = (np.arange(n) + 0.5) / n
-    # film coordinates in [-1, 1]: x grows to the right, y grows upward
-    cols = (np.arange(cam.width)[:, None] + sub[None, :]) / cam.width * 2 - 1  # (W, n)
-    rows = 1 - (np.arange(cam.height)[:, None] + sub[None, :]) / cam.height * 2  # (H, n)
-    fx = np.broadcast_to(cols[None, :, None, :], (cam.height, cam.width, n, n))
-    fy = np.broadcast_to(rows[:, None, :, None], (cam.height, cam.width, n, n))
+    shape = (cam.height, cam.width, n, n)
+    if jitter is None:
+        jitter = np.full((*shape, 2), 0.5)
+    elif jitter.shape != (*shape, 2) or not (np.all(jitter >= 0) and np.all(jitter < 1)):
+        raise ValueError(f"jitter: expected {(*shape, 2)} values in [0, 1), got shape {jitter.shape}")
+    cell = np.arange(n)
+    # film coordinates in [-1, 1]: x grows to the right, y grows upward; axes (row, col, sub-row, sub-col)
+    fx = (np.arange(cam.width)[None, :, None, None] + (cell[None, None, None, :] + jitter[..., 0]) / n) / cam.width * 2 - 1
+    fy = 1 - (np.arange(cam.height)[:, None, None, None] + (cell[None, None, :, None] + jitter[..., 1]) / n) / cam.height * 2
     d = fwd + fx[..., None] * tan_x * right + fy[..., None] * tan_y * up
     d = d.reshape(cam.height, cam.width, n * n, 3)
     return d / np.linalg.norm(d, axis=-1, keepdims=True), cam.position.copy()

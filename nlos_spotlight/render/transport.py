@@ -115,8 +115,10 @@ class Renderer:
         cam = scene.camera
         self.shape = (cam.height, cam.width)
         self.recv = self._receivers(s.pixel_samples)
+        self._draw = None  # the footprint draw of ``recv_t`` (``use_footprint``)
         if s.pixel_footprint > 0:
             self.recv_t = self._receivers(s.pixel_footprint, footprint=True)
+            self._footprints = {None: self.recv_t}
         else:
             self.recv_t = self.recv if s.transport_pixel_samples == s.pixel_samples \
                 else self._receivers(s.transport_pixel_samples)
@@ -124,17 +126,25 @@ class Renderer:
         self.D = self._direct_matrix()
         self.ambient_image = self._ambient()
         self._inter_cache: dict[int, torch.Tensor] = {}  # candidate -> its interreflection image
-        self._spot_shadows: dict = {}  # relay offset -> its ``SpotShadow`` (relay points, cached visibility)
+        self._spot_shadows: dict = {}  # (relay offset, footprint draw) -> its ``SpotShadow`` (relay points, cached visibility)
 
     # ---------------------------------------------------------------- precompute
     def _t(self, x) -> torch.Tensor:
         return torch.as_tensor(x, device=self.device, dtype=self.dtype)
 
-    def _receivers(self, n: int, footprint: bool = False) -> _Receivers:
+    def _receivers(self, n: int, footprint: bool = False, draw: int | None = None) -> _Receivers:
         """Camera sub-samples, n x n a pixel; ``footprint``: with the slots of footprint sampling,
-        each pixel's turned by a fixed random offset so that neighbouring pixels pair their
-        sub-samples with different thinned sources."""
-        dirs, origin = pixel_rays(self.scene.camera, n)
+        each pixel's turned by a random offset so that neighbouring pixels pair their sub-samples
+        with different thinned sources, and (``footprint_jitter``) the sub-samples jittered in their
+        cells; both drawn from ``footprint_seed`` and ``draw`` (None: the renderer's fixed set)."""
+        jitter, turn = None, None
+        if footprint:
+            s, cells = self.settings, self.shape[0] * self.shape[1]
+            rng = np.random.default_rng(s.footprint_seed if draw is None else [s.footprint_seed, draw])
+            turn = rng.integers(n * n, size=cells)
+            if s.footprint_jitter:
+                jitter = rng.random((*self.shape, n, n, 2))
+        dirs, origin = pixel_rays(self.scene.camera, n, jitter)
         flat = dirs.reshape(-1, 3)
         hit, surf = self.static.trace(np.broadcast_to(origin, flat.shape), flat)
         if not hit.any():
@@ -144,11 +154,22 @@ class Renderer:
         to_cam = -flat[hit]
         key = None
         if footprint:
-            turn = np.random.default_rng(self.settings.footprint_seed).integers(n * n, size=self.shape[0] * self.shape[1])
             key = torch.as_tensor((index % (n * n) + turn[pixel]) % (n * n), device=self.device)
         return _Receivers(surf.torch(self.device, self.dtype), self._t(to_cam),
                           torch.as_tensor(pixel, device=self.device), n * n, torch.as_tensor(surf.glossy, device=self.device),
                           surf, key)
+
+    def use_footprint(self, draw: int | None) -> None:
+        """Make footprint draw ``draw`` the person terms' camera sub-samples (None: the fixed set of
+        ``footprint_seed``); each draw's sub-samples are traced once and kept (a few at a time).
+        Without footprint sampling there is one set and ``draw`` changes nothing."""
+        if self.settings.pixel_footprint <= 0 or draw == self._draw:
+            return
+        if draw not in self._footprints:
+            if len(self._footprints) >= RELAY_SETS_KEPT + 1:
+                self._footprints.pop(next(k for k in self._footprints if k is not None))  # the oldest draw
+            self._footprints[draw] = self._receivers(self.settings.pixel_footprint, footprint=True, draw=draw)
+        self.recv_t, self._draw = self._footprints[draw], draw
 
     def _spot_samples(self) -> None:
         """LOS samples x_s of every candidate: where the projector's rays land, and their flux."""
@@ -214,7 +235,8 @@ class Renderer:
         return y
 
     def render(self, y: torch.Tensor, person: Person | None = None, translation=None,
-               components=DEFAULT_COMPONENTS, relay_offset: float | None = None) -> RenderOutput:
+               components=DEFAULT_COMPONENTS, relay_offset: float | None = None,
+               footprint_draw: int | None = None) -> RenderOutput:
         """Render the requested components.
 
         Args:
@@ -225,6 +247,8 @@ class Renderer:
             components: names from :data:`COMPONENTS`.
             relay_offset: the strata offset of ``nlos_shadow``'s relay points for this call
                 (``RenderSettings.relay_offset`` if None).
+            footprint_draw: the person terms' footprint sub-samples for this call and later ones
+                (:meth:`use_footprint`; None: the fixed set).
         """
         unknown = set(components) - set(COMPONENTS)
         if unknown:
@@ -233,6 +257,7 @@ class Renderer:
         if y.shape != (self.num_spots,):
             raise ValueError(f"spot vector: expected shape ({self.num_spots},), got {tuple(y.shape)}")
         batched = translation is not None and torch.as_tensor(translation).dim() == 2
+        self.use_footprint(footprint_draw)
         out = RenderOutput()
         if "direct" in components:
             out.components["direct"] = self._direct(y)
@@ -276,13 +301,13 @@ class Renderer:
         offset = float(self.settings.relay_offset if offset is None else offset)
         if not 0 <= offset < 1:
             raise ValueError(f"relay_offset: expected a number in [0, 1), got {offset}")
-        cache = self._spot_shadows
-        if offset not in cache:
+        cache, key = self._spot_shadows, (offset, self._draw)  # its camera points are the footprint draw's
+        if key not in cache:
             if len(cache) >= RELAY_SETS_KEPT:
                 cache.pop(next(iter(cache)))  # the oldest set
-            cache[offset] = SpotShadow(self, offset)
+            cache[key] = SpotShadow(self, offset)
         t, batched = self._translations(translation)
-        imgs = [cache[offset].image(y, person, tb) for tb in t]
+        imgs = [cache[key].image(y, person, tb) for tb in t]
         return torch.stack(imgs) if batched else imgs[0]
 
     def _active(self, y: torch.Tensor) -> torch.Tensor:
@@ -485,7 +510,7 @@ class Renderer:
         return lf.reshape(len(o), -1), lb.reshape(len(o), -1)
 
     def transport_images(self, person: Person, translation=None, spots=None, also: tuple = (),
-                         nlos_ambient: bool = False) -> torch.Tensor:
+                         nlos_ambient: bool = False, footprint_draw: int | None = None) -> torch.Tensor:
         """The ``nlos`` image of every candidate spot for one body placement, (T, H, W, 3).
 
         These are the columns of the light transport matrix F (paper Eq. (1)): for any spot vector
@@ -496,8 +521,11 @@ class Renderer:
         ``also``: renderers of the same geometry and camera under other emitters (e.g. the flash),
         whose every candidate's column follows this renderer's; ``nlos_ambient``: the
         ``nlos_ambient`` image last. All of them share the one person -> pixel pass (the costly
-        visibility): (K + sum of their T [+ 1], H, W, 3).
+        visibility): (K + sum of their T [+ 1], H, W, 3). ``footprint_draw``: as in :meth:`render`,
+        for this renderer and ``also``.
         """
+        for r in (self, *also):
+            r.use_footprint(footprint_draw)
         for other in also:
             if other.shape != self.shape or not torch.equal(other.recv_t.pts["pos"], self.recv_t.pts["pos"]):
                 raise ValueError("transport_images: 'also' renderers must share this one's camera receivers")
