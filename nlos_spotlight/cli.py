@@ -152,6 +152,8 @@ def cmd_train(args: argparse.Namespace) -> None:
     from .train.config import load_train_config
     from .train.loop import train
 
+    if args.method == "floor-net":
+        return _train_floor_net(args)
     cfg = load_train_config(args.config)
     if args.seed is not None:
         if args.seed < 0:
@@ -164,6 +166,27 @@ def cmd_train(args: argparse.Namespace) -> None:
                progress=not args.quiet)
     if tr.rank == 0:
         console.print(f"trained {tr.step} steps; run in {Path(args.out).resolve()} (config.json, metrics.csv, final.pt)")
+
+
+def _train_floor_net(args: argparse.Namespace) -> None:
+    """``nlos train --method floor-net``: FloorNet across the dataset's rooms (``train/floor_net.py``)."""
+    from .config_file import load_config_file
+    from .console import QUIET, console
+    from .train.floor_net import PRESETS, train_run
+
+    if args.resume:
+        raise NlosError("--resume: FloorNet trains in minutes and does not resume; run it again")
+    cfg, _ = load_config_file(args.config, PRESETS, default_base="default")
+    if args.seed is not None:
+        if args.seed < 0:
+            raise NlosError(f"--seed: expected a non-negative integer, got {args.seed}")
+        cfg.seed = args.seed
+    cfg.check()
+    out = output_dir(args.out, "--out")
+    log = None if (args.quiet or QUIET) else console.print
+    run = train_run(cfg, input_dir(args.data, "--data", "dataset directory"), out, log)
+    console.print(f"FloorNet trained {cfg.steps} steps, validation {run.best_cm:.1f} cm; run in {out.resolve()} "
+                  "(floor_net.pt, floor_net.json)")
 
 
 def cmd_evaluate(args: argparse.Namespace) -> None:
@@ -419,8 +442,13 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("data_dir", help="dataset directory from nlos generate (or a room model from nlos fit)")
     v.add_argument("--digests-only", action="store_true", help="skip reading the arrays (faster)")
     v.set_defaults(func=cmd_verify)
-    t = sub.add_parser("train", help="train the IEN and the NLOS network end to end (torchrun for several processes)")
-    t.add_argument("config", help="preset (tiny, demo, small, paper) or a YAML file of TrainConfig fields")
+    t = sub.add_parser("train", help="train the IEN and the NLOS network end to end (torchrun for several processes), "
+                                     "or FloorNet across rooms (--method floor-net)")
+    t.add_argument("config", help="preset (tiny, demo, small, paper) or a YAML file of TrainConfig fields; "
+                                  "with --method floor-net: default, tiny or a YAML file of FloorNetTraining fields")
+    t.add_argument("--method", choices=("nlos-net", "floor-net"), default="nlos-net",
+                   help="nlos-net: the IEN and the image network (default); floor-net: FloorNet on the backprojection, "
+                        "the method for rooms no network saw")
     t.add_argument("--data", required=True, help="dataset directory from nlos generate")
     t.add_argument("--out", required=True, help="run directory")
     t.add_argument("--resume", action="store_true", help="continue from RUN/checkpoint.pt")

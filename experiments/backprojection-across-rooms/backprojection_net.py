@@ -31,136 +31,26 @@ import numpy as np
 import torch
 
 from nlos_spotlight.console import console
-from nlos_spotlight.data.backprojection import matched_filter
-from nlos_spotlight.render.sensor import SensorConfig
 
 
-CAPTURES = ("photo", "spot")
-"""What the filter reads. 'photo': the photograph minus the empty-room one (the networks' input: the
-person's light from the spot and from the room's ambient light). 'spot': also a projector-off
-photograph with the person and one without, so that (on - off with) - (on - off without) leaves the
-person's light from the spot alone, at the noise of four frames."""
+from nlos_spotlight.train.floor_net import CAPTURES, FloorNetTraining, predict, room_arrays, train_floor_net
 
 
-def room_arrays(d: Path, faces: list[int] | None, samples: str, capture: str = "photo",
-                mask: str = "placement") -> dict:
-    """What training and scoring need of one room: its templates' parts, and its people's photographs
-    (luminance, background-subtracted, noise-free; ``capture`` of :data:`CAPTURES`) and noise variance
-    under each spot of ``faces`` (None: the room's stored spots)."""
-    from nlos_spotlight.data.backprojection import FloorGrid, candidate_spot_factor, room_backprojector
-    from nlos_spotlight.data.tensors import load_scene_tensors
-    from nlos_spotlight.train.imaging import form_images, radiance_variance
-
-    s = load_scene_tensors(d, [], samples=samples)
-    grid = FloorGrid(mask=mask)
-    bp, _ = room_backprojector(str(d), grid)
-    sensor = SensorConfig.at(tuple(s.ambient.shape[:2]))
-    faces = faces if faces is not None else [int(f) for f in torch.nonzero(s.stored).flatten()]
-    hit = torch.as_tensor(bp.hit.ravel())
-    imgs, var, spots = [], [], []
-    idx = torch.arange(s.num_samples)
-    for f in faces:
-        y = torch.zeros(len(s.faces))
-        y[f] = 1.0
-        with torch.no_grad():
-            img, pf = form_images(s, idx, y, "spot")
-        v = 2 * radiance_variance(pf, pf, sensor)  # photograph and empty-room frame
-        person = img - pf
-        if capture == "spot":  # the two projector-off frames, at the same exposure
-            v = v + 2 * radiance_variance(s.ambient, pf, sensor)
-            person = person - s.nlos_ambient
-        imgs.append(person.mean(-1).reshape(len(idx), -1)[:, hit])
-        var.append((v.sum(-1) / 9).reshape(-1)[hit])
-        spots.append(candidate_spot_factor(str(d), f, grid))
-    return dict(kernel=torch.as_tensor(bp.kernel, dtype=torch.float32), valid=torch.as_tensor(bp.valid),
-                cells=torch.as_tensor(bp.cells, dtype=torch.float32), heights=bp.heights,
-                spots=torch.as_tensor(np.stack(spots), dtype=torch.float32), images=torch.stack(imgs, 1).float(),
-                var=torch.stack(var).float(), target=s.target, posture=s.posture, faces=faces)
-
-
-def heat(room: dict, k: int, people: torch.Tensor, gen: torch.Generator | None, templates: int = 1):
-    """(B, M Z, G, G) noise-weighted matched filters of ``people`` under the room's k-th spot (fresh
-    noise from ``gen``; None: noise-free): the spot's templates, and with ``templates`` 2 the kernel
-    alone (a person lit evenly); the spot templates' norms (G, G)."""
-    w = 1.0 / room["var"][k]
-    x = room["images"][people, k]
-    if gen is not None:
-        x = x + torch.randn(x.shape, generator=gen) * room["var"][k].sqrt()
-    n = int(round(len(room["cells"]) ** 0.5))
-    hs, strength = [], None
-    for t in [room["spots"][k][:, None] * room["kernel"], room["kernel"]][:templates]:  # (P, C)
-        hs.append(matched_filter(x, t, w).reshape(len(people), -1, n, n))
-        if strength is None:
-            strength = ((t * t) @ w).sqrt().reshape(room["heights"], n, n).amax(0)
-    return torch.cat(hs, 1), strength
-
-
-def argmax_cell(room: dict, h: torch.Tensor) -> torch.Tensor:
-    """(B, 2) the valid cell where the spot's filter (the first Z channels of ``h``) peaks."""
-    m = h[:, : room["heights"]].amax(1).reshape(len(h), -1).masked_fill(~room["valid"][None], -torch.inf)
-    return room["cells"][m.argmax(1)]
-
-
-def predict(net, room: dict, k: int, people: torch.Tensor, gen) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    h, strength = heat(room, k, people, gen, net.cfg.templates)
-    n = h.shape[-1]
-    valid = room["valid"].reshape(n, n)
-    pos, logits, _ = net(h, valid.expand(len(h), -1, -1), strength.expand(len(h), -1, -1), room["cells"])
-    return pos, logits, argmax_cell(room, h)
-
-
-def train_floor_net(args, t0: float):
-    """FloorNet trained on the training rooms, the weights of its best validation error kept;
-    returns it, the training rooms' mean position, the validation curve and its best error."""
+def train(args, t0: float):
+    """FloorNet trained on the training rooms (``train.floor_net.train_floor_net``), the weights of
+    its best validation error kept; returns it, the training rooms' mean position, the validation
+    curve and its best error."""
     from nlos_spotlight.data.tensors import finished_scene_dirs
-    from nlos_spotlight.models.floor_net import FloorNet, FloorNetConfig
 
     arrays = lambda split: [room_arrays(d, None, "images", args.capture, args.mask)
                             for d in finished_scene_dirs(args.train, split)]
-    train, val = arrays("train")[: args.rooms], arrays("val")
-    console.print(f"{len(train)} training and {len(val)} validation rooms ready ({time.perf_counter() - t0:.0f} s)")
-    mean_xy = torch.cat([r["target"] for r in train]).mean(0)
-    net = FloorNet(FloorNetConfig(heights=train[0]["heights"], templates=args.templates))
-    opt = torch.optim.AdamW(net.parameters(), lr=args.lr, weight_decay=1e-4)
-    sched = torch.optim.lr_scheduler.OneCycleLR(opt, args.lr, total_steps=args.steps)
-    gen = torch.Generator().manual_seed(args.seed)
-    rng = np.random.default_rng(args.seed)
-    curve, best, best_state = [], float("inf"), None
-
-    def val_error() -> float:
-        g = torch.Generator().manual_seed(12345)
-        net.eval()
-        errs = []
-        with torch.no_grad():
-            for r in val:
-                for k in range(len(r["faces"])):
-                    pos, _, _ = predict(net, r, k, torch.arange(len(r["target"])), g)
-                    errs.append((pos - r["target"]).norm(dim=1))
-        net.train()
-        return float(torch.cat(errs).mean()) * 100
-
-    for step in range(1, args.steps + 1):
-        loss = 0.0
-        for i in rng.choice(len(train), min(args.rooms_per_step, len(train)), replace=False):
-            r = train[i]
-            k = int(rng.integers(len(r["faces"])))
-            people = torch.as_tensor(rng.choice(len(r["target"]), min(args.people_per_room, len(r["target"])),
-                                                replace=False))
-            pos, logits, _ = predict(net, r, k, people, gen)
-            loss = loss + (pos - r["target"][people]).norm(dim=1).mean() \
-                + 0.3 * torch.nn.functional.cross_entropy(logits, r["posture"][people])
-        opt.zero_grad()
-        (loss / args.rooms_per_step).backward()
-        opt.step()
-        sched.step()
-        if step % 250 == 0 or step == args.steps:
-            e = val_error()
-            curve.append((step, e))
-            if e < best:
-                best, best_state = e, {k: v.clone() for k, v in net.state_dict().items()}
-            console.print(f"step {step}: validation {e:.1f} cm (best {best:.1f}) ({time.perf_counter() - t0:.0f} s)")
-    net.load_state_dict(best_state)
-    return net, mean_xy, curve, best
+    train_rooms, val = arrays("train")[: args.rooms], arrays("val")
+    console.print(f"{len(train_rooms)} training and {len(val)} validation rooms ready ({time.perf_counter() - t0:.0f} s)")
+    cfg = FloorNetTraining(rooms=args.rooms, steps=args.steps, rooms_per_step=args.rooms_per_step,
+                           people_per_room=args.people_per_room, lr=args.lr, templates=args.templates,
+                           capture=args.capture, mask=args.mask, seed=args.seed)
+    run = train_floor_net(cfg, train_rooms, val, lambda m: console.print(f"{m} ({time.perf_counter() - t0:.0f} s)"))
+    return run.net, run.mean_xy, run.curve, run.best_cm
 
 
 def main() -> None:
@@ -208,7 +98,7 @@ def main() -> None:
         curve, best = before["validation_cm"], before["best_validation_cm"]
         train_seconds = before.get("train_seconds")  # runs scored again before this field: unknown
     else:
-        net, mean_xy, curve, best = train_floor_net(args, t0)
+        net, mean_xy, curve, best = train(args, t0)
         train_seconds = time.perf_counter() - t0
         torch.save(net.state_dict(), weights)
     net.eval()

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from backprojection_net import predict, room_arrays  # this folder: run as a script
+from nlos_spotlight.train.floor_net import predict, room_arrays
 from nlos_spotlight.console import console
 
 

@@ -28,7 +28,7 @@ from types import SimpleNamespace
 import numpy as np
 import torch
 
-from backprojection_net import predict, room_arrays  # this folder: run as a script
+from nlos_spotlight.train.floor_net import predict, room_arrays
 
 
 def room_choices(d: Path, ien, cache: Path) -> list[dict]:

@@ -46,7 +46,7 @@ import torch
 import torch.nn.functional as F
 from rich.progress import track
 
-from backprojection_net import predict, room_arrays  # this folder: run as a script
+from nlos_spotlight.train.floor_net import predict, room_arrays
 
 from nlos_spotlight.console import QUIET, console
 
