@@ -36,7 +36,7 @@ draws for every condition:
   at 6 bounces (:func:`mitsuba_people`);
 * ``capture-all``: every capture effect at 1x ``tripod`` together, on the fit's person light;
 * scan versus world (``--world-magnitudes``): ``camera-pose``, ``projector-aim``, ``albedo``,
-  ``geometry`` (``world.mismatch``), each alone: the people and the room's light rendered in a world
+  ``geometry`` (noise per vertex), ``warp`` (a smooth deformation) (``world.mismatch``), each alone: the people and the room's light rendered in a world
   that differs from the scan the room model believes by one calibration error
   (:func:`world_photographs`; ``--world-draws`` independent worlds, their people pooled in one
   row), beside ``world-scan``, the same rendering in the scan itself; the people are the
@@ -202,8 +202,8 @@ WORLD_SEED = 11
 """Seed of the first world's draw (the same worlds for every reading of a room); draw i's is
 ``WORLD_SEED + 1000 i``."""
 WORLD_FOOTPRINT = 8
-"""Footprint of the world photographs' person light (the fit's default, with the camera
-photographs' pixel offsets and other relay points: sampling apart from any fit's)."""
+"""Footprint of the world photographs' person light: 8 x 8 sub-samples jittered in their cells (an
+unbiased pixel mean, as the camera photographs), drawn apart from any fit's, other relay points."""
 
 
 def world_photographs(room: Room, cache: Path, effect: str, magnitude: float, draw: int = 0) -> dict[str, np.ndarray]:
@@ -219,14 +219,15 @@ def world_photographs(room: Room, cache: Path, effect: str, magnitude: float, dr
     from nlos_spotlight.world.mismatch import mismatched_world
 
     name = "scan" if magnitude == 0 else f"{effect}-{magnitude:g}" + (f"-d{draw}" if draw else "")
-    path = cache / room.name / f"world-{name}-{len(room.indices)}-f{WORLD_FOOTPRINT}.npz"
+    path = cache / room.name / f"world-{name}-{len(room.indices)}-f{WORLD_FOOTPRINT}j.npz"
     if (got := cached(path, room)) is not None:
         return got
     cfg = fit_config(room.path)
     builder, dcfg = room_builder(room.path, cfg)
     v = preset("tripod").only(effect).scaled(magnitude)
     world, aim, drawn = mismatched_world(builder.room_scene(), room.aim, v, WORLD_SEED + 1000 * draw)
-    rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=WORLD_FOOTPRINT, spot_samples=dcfg.spot_samples,
+    rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=WORLD_FOOTPRINT, footprint_jitter=True,
+                        spot_samples=dcfg.spot_samples,
                         person_samples=dcfg.person_samples, shadow_samples=4096, footprint_seed=CAMERA_SEED,
                         relay_offset=RELAY_OFFSET, device="cpu")
     t0 = time.perf_counter()

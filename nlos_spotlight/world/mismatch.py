@@ -13,7 +13,9 @@ preset's sources in ``render/variation.py``):
   the turned beam first meets the scan;
 * ``albedo_log``: every surface's colour times exp(N(0, sigma^2)) per channel, one draw for the
   room (a scan's colour calibration is off as a whole: exposure and white balance), clipped to 1;
-* ``geometry_m``: every vertex moved by an isotropic normal draw (scan noise).
+* ``geometry_m``: every vertex moved by an isotropic normal draw (the fused mesh's local noise);
+* ``warp_m``: every vertex moved by one smooth random field over the room (:func:`warped`: the
+  scan's tracking drift and bowed walls), correlated over ``render.variation.WARP_LENGTH_M``.
 
 The capture fields of the variation are ignored here (they act between photographs,
 ``render.variation``).
@@ -106,6 +108,32 @@ def jittered(scene: Scene, sigma_m: float, rng: np.random.Generator) -> None:
                          m.face_colors)
 
 
+WARP_FEATURES = 256
+"""Random Fourier features of the warp field (its covariance within a few % of the Gaussian kernel)."""
+
+
+def warp_field(sigma_m: float, length_m: float, rng: np.random.Generator, features: int = WARP_FEATURES):
+    """One draw of a smooth random field, a function (N, 3) points -> (N, 3) displacements: each
+    axis an independent Gaussian process of standard deviation ``sigma_m`` and squared-exponential
+    covariance ``sigma^2 exp(-|a - b|^2 / (2 length^2))``, as random Fourier features
+    (Rahimi & Recht, NIPS 2007): ``sigma sqrt(2 / K) sum_k w_k cos(omega_k . p + phi_k)``."""
+    omega = rng.normal(0.0, 1.0 / length_m, (features, 3))
+    phase = rng.uniform(0.0, 2 * math.pi, features)
+    weight = sigma_m * math.sqrt(2.0 / features) * rng.standard_normal((features, 3))
+    return lambda points: np.cos(points @ omega.T + phase) @ weight
+
+
+def warped(scene: Scene, sigma_m: float, rng: np.random.Generator, length_m: float | None = None) -> None:
+    """Every vertex of every shape moved by one smooth field (:func:`warp_field`), in place: shapes
+    that meet keep meeting, since the field is one function of position."""
+    from ..render.variation import WARP_LENGTH_M
+
+    field = warp_field(sigma_m, WARP_LENGTH_M if length_m is None else length_m, rng)
+    for s in scene.shapes:
+        m = s.mesh
+        s.mesh = TriMesh(m.vertices + field(m.vertices), m.faces, m.vertex_colors, m.face_colors)
+
+
 def mismatched_world(scene: Scene, aim: np.ndarray, v, seed: int) -> tuple[Scene, np.ndarray, dict]:
     """(the world, where the spot lands in it, what was drawn) for the scan's ``scene`` and spot
     ``aim`` under variation ``v``'s scan-versus-world fields; ``scene`` is not changed."""
@@ -123,6 +151,9 @@ def mismatched_world(scene: Scene, aim: np.ndarray, v, seed: int) -> tuple[Scene
     if v.geometry_m > 0:
         jittered(world, v.geometry_m, rng)
         drawn["geometry_m"] = v.geometry_m
+    if getattr(v, "warp_m", 0) > 0:
+        warped(world, v.warp_m, rng)
+        drawn["warp_m"] = v.warp_m
     aim = np.asarray(aim, np.float64)
     if v.projector_aim_deg > 0:  # after the geometry: the beam lands on the world's walls
         ang = np.radians(v.projector_aim_deg) * rng.standard_normal(2)
@@ -131,4 +162,5 @@ def mismatched_world(scene: Scene, aim: np.ndarray, v, seed: int) -> tuple[Scene
     return world, aim, drawn
 
 
-__all__ = ["mismatched_world", "recoloured", "rotation", "turned_aim", "turned_camera", "jittered"]
+__all__ = ["mismatched_world", "recoloured", "rotation", "turned_aim", "turned_camera", "jittered", "warp_field",
+           "warped"]

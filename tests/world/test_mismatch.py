@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 
 from nlos_spotlight.render.surface import StaticSurfaces
 from nlos_spotlight.render.variation import CaptureVariation, preset
@@ -59,7 +60,7 @@ def test_zero_variation_is_the_scan_and_draws_are_seeded():
     a, aim_a, da = mismatched_world(sc, SPOT_TARGET, v, 5)
     b, aim_b, db = mismatched_world(sc, SPOT_TARGET, v, 5)
     assert da == db and np.array_equal(aim_a, aim_b) and set(da) == {"camera_deg", "camera_m", "albedo_factor",
-                                                                     "geometry_m", "projector_deg"}
+                                                                     "geometry_m", "warp_m", "projector_deg"}
     np.testing.assert_array_equal(sc.static_mesh()[0].vertices, corner_scene("example", 8).static_mesh()[0].vertices)
 
 
@@ -74,3 +75,38 @@ def test_albedo_and_geometry_draws_have_their_spread():
         # every face's albedo (material times mesh colour) times the factor, capped at 1
         np.testing.assert_allclose(_albedo(w), np.minimum(_albedo(sc) * d["albedo_factor"], 1.0), rtol=1e-9)
     assert abs(np.std(logs) - 0.2) < 0.03 and abs(np.std(np.concatenate(moves)) - 0.01) < 5e-4
+
+
+def test_warp_is_a_smooth_field_of_its_spread():
+    """The scan's smooth deformation: each axis's displacement has standard deviation sigma over
+    draws, points 1 cm apart move together (correlation exp(-d^2 / 2 L^2) = 0.9998) and points 2 m
+    apart independently (3e-4), as the squared-exponential kernel says."""
+    from nlos_spotlight.world.mismatch import warp_field
+
+    sigma, length = 0.01, 0.5
+    p = np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.0, 2.0, 0.0], [0.3, 0.4, 0.0]])
+    d = np.stack([warp_field(sigma, length, np.random.default_rng(s))(p) for s in range(2000)])  # (draws, 4, 3)
+    assert np.std(d[:, 0]) == pytest.approx(sigma, rel=0.08)
+    corr = lambda i, j: np.corrcoef(d[:, i].ravel(), d[:, j].ravel())[0, 1]
+    assert corr(0, 1) > 0.99
+    assert abs(corr(0, 2)) < 0.08
+    assert corr(0, 3) == pytest.approx(np.exp(-0.25 / (2 * length**2)), abs=0.08)  # 0.5 m apart: 0.61
+
+
+def test_warp_keeps_shapes_that_meet_together():
+    from nlos_spotlight.world.mismatch import warped
+
+    sc = corner_scene("example", resolution=8)
+    before = [s.mesh.vertices.copy() for s in sc.shapes]
+    warped(sc, 0.01, np.random.default_rng(0))
+    moves = [s.mesh.vertices - b for s, b in zip(sc.shapes, before)]
+    # a point shared by two shapes moves the same in both (one field of position)
+    shared = 0
+    for i in range(len(before)):
+        for j in range(i + 1, len(before)):
+            same = (before[i][:, None, :] == before[j][None, :, :]).all(-1)
+            a, b = np.nonzero(same)
+            np.testing.assert_allclose(moves[i][a], moves[j][b], atol=1e-12)
+            shared += len(a)
+    assert shared > 0
+    assert 0.002 < np.std(np.concatenate(moves)) < 0.03
