@@ -71,6 +71,9 @@ def run_all(run_dir: Path, data: Path, seeds: int, names: list[str] | None, prog
             console.print(f"[yellow]skip {m.name}: {ev.skipped[m.name]}[/yellow]")
             continue
         ev.preds[m.name] = {}
+        if m.arch == "floor-net":
+            _floor_net(run_dir, base, ev, m, data, scenes, progress)
+            continue
         for seed in ev.seeds:
             t0 = time.perf_counter()
             path = ensure_run(run_dir, base, m, seed, data, progress)
@@ -90,6 +93,21 @@ def run_all(run_dir: Path, data: Path, seeds: int, names: list[str] | None, prog
     ev.seconds["decimation study"] = time.perf_counter() - t0
     ev.snr = spot_snr(ev, tdata)
     return ev
+
+
+def _floor_net(run_dir: Path, base, ev: Evaluation, m: Method, data: Path, scenes: list, progress: bool) -> None:
+    """``m``'s predictions at every seed (``evaluate/floor_net.py``): unseen rooms only, since
+    FloorNet trains on every person of the training rooms."""
+    from ..console import console
+    from .floor_net import ensure_floor_net, evaluate_floor_net
+
+    for seed in ev.seeds:
+        t0 = time.perf_counter()
+        path = ensure_floor_net(run_dir, base, seed, data, progress)
+        ev.seconds[f"train {m.name} seed{seed}"] = time.perf_counter() - t0
+        ours = load_trained(run_path(run_dir, base, BY_NAME["ours"], seed))  # its IEN picks the spot
+        ev.preds[m.name][seed] = evaluate_floor_net(path, ours, scenes, ev.scene_ids, seed)
+        console.print(f"{m.name} seed {seed}: unseen rooms {fmt_short(per_class(ev.preds[m.name][seed]))}")
 
 
 def seen_rooms(data: Path, base) -> tuple[list[str], list]:

@@ -21,13 +21,15 @@ class Method:
     policy: str
     """'ien' or a fixed policy of ``lighting.POLICIES``."""
     arch: str
-    """Network of ``models.registry.NETWORKS``."""
+    """Network of ``models.registry.NETWORKS``, or 'floor-net' (``evaluate/floor_net.py``: FloorNet on
+    the backprojection, trained across the training rooms, under ours' IEN spot)."""
     overrides: tuple[tuple[str, object], ...] = ()
     """Further TrainConfig fields that differ from the evaluated run's."""
 
 
 METHODS: tuple[Method, ...] = (
     Method("ours", "Ours (IEN + ResNet-18)", "ien", "resnet18"),
+    Method("floor_net", "IEN + FloorNet (ours across rooms)", "ien", "floor-net"),
     Method("ours_task_only", "IEN (task loss only) + ResNet-18", "ien", "resnet18", (("snr_weight", 0.0),)),
     Method("ien_cnn", "IEN + CNN (Chandran)", "ien", "chandran"),
     Method("al_resnet", "AL + ResNet-18", "adaptive", "resnet18"),

@@ -301,6 +301,21 @@ def load_floor_net(run_dir: str | Path) -> FloorNetRun:
                        float(meta.get("best_validation_cm", float("nan"))))
 
 
+TRANSPORT_SPOTS = 8
+"""Spots a room with full-transport people only trains under: its candidates of highest SNR."""
+
+
+def _training_room(d: Path, cfg: FloorNetTraining) -> dict:
+    """A training room's arrays: its image samples under their stored spots, or where it holds only
+    full-transport samples, those under its :data:`TRANSPORT_SPOTS` best candidates."""
+    if any((Path(d) / "images").glob("*.npz")):
+        return room_arrays(d, None, "images", cfg.capture, cfg.mask)
+    from ..lighting.snr import candidate_snr
+
+    best = np.argsort(-candidate_snr(Path(d)))[:TRANSPORT_SPOTS]
+    return room_arrays(d, [int(f) for f in best], "transport", cfg.capture, cfg.mask)
+
+
 def train_run(cfg: FloorNetTraining, data: Path, out: Path, log=None) -> FloorNetRun:
     """``nlos train --method floor-net``: FloorNet on the dataset's train split (its first
     ``cfg.rooms`` rooms), validated on its val split, saved in ``out`` with the run's record."""
@@ -308,10 +323,9 @@ def train_run(cfg: FloorNetTraining, data: Path, out: Path, log=None) -> FloorNe
     from ..data.tensors import finished_scene_dirs
 
     t0 = time.perf_counter()
-    arrays = lambda split: [room_arrays(d, None, "images", cfg.capture, cfg.mask)
-                            for d in finished_scene_dirs(data, split)]
-    train = arrays("train")[: cfg.rooms]
-    val = arrays("val")
+    arrays = lambda dirs: [_training_room(d, cfg) for d in dirs]
+    train = arrays(finished_scene_dirs(data, "train")[: cfg.rooms])
+    val = arrays(finished_scene_dirs(data, "val"))
     if log is not None:
         log(f"{len(train)} training and {len(val)} validation rooms ready ({time.perf_counter() - t0:.0f} s)")
     run = train_floor_net(cfg, train, val, log)

@@ -166,3 +166,30 @@ def test_test_data_scores_the_rooms_of_another_dataset(evaluated, tmp_path):
     assert {r["scene"] for r in rows} == {sid} and len(rows) == s.num_samples
     true = np.array([[float(r["true_x"]), float(r["true_y"])] for r in sorted(rows, key=lambda r: int(r["sample"]))])
     np.testing.assert_allclose(true, s.target.numpy(), atol=1e-4)
+
+
+def test_floor_net_is_a_method_read_under_ours_spot(evaluated, tmp_path):
+    """``--methods floor_net``: FloorNet trained on the training rooms (``RUN/methods/floor_net``),
+    read in the test room under the spot ours' IEN picks there; raw.csv holds its predictions, and
+    its table row is their error."""
+    from nlos_spotlight.data.tensors import load_scene_tensors, split_ids
+    from nlos_spotlight.evaluate.predictions import illumination_for
+    from nlos_spotlight.train.checkpoint import load_trained
+    from nlos_spotlight.train.floor_net import load_floor_net
+
+    data, run, _, _ = evaluated
+    out = tmp_path / "report"
+    assert nlos(["evaluate", str(run), "--data", str(data), "--out", str(out), "--methods", "floor_net", "--quiet"]) == 0
+    fn = run / "methods" / "floor_net" / "seed0"
+    assert (fn / "floor_net.pt").is_file() and load_floor_net(fn).config.steps == 6
+    with (out / "raw.csv").open() as f:
+        rows = [r for r in csv.DictReader(f) if r["method"] == "floor_net"]
+    sid, = split_ids(data, "test")
+    s = load_scene_tensors(data / "scenes" / sid, ["normals"])
+    ours = load_trained(run)
+    assert len(rows) == s.num_samples
+    assert {int(r["face"]) for r in rows} == {illumination_for(ours, s, 0, 0).face}
+    err = np.mean([np.hypot(float(r["pred_x"]) - float(r["true_x"]), float(r["pred_y"]) - float(r["true_y"]))
+                   for r in rows if r["trajectory"] == "-1"]) * 100
+    res = json.loads((out / "evaluation.json").read_text())["results"]["floor_net"]
+    assert res["error_cm"]["all"][0] == pytest.approx(err, rel=1e-3)
