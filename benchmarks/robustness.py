@@ -31,7 +31,9 @@ draws for every condition:
   per-pixel gain over the fit's light, cross-fitted on the other half of the people,
   :func:`footprint_gain`): is the camera-photograph gap the fit's fixed footprint pattern?
   ``camera-f32`` (``--fine``): the camera photographs with the person's light at 32 x 32 (is
-  16 x 16 converged?); ``--noise-draws`` averages every row over sensor-noise draws;
+  16 x 16 converged?); ``bounce`` (``--bounce``): the camera photographs with the person's light
+  over one more static bounce as well (``nlos_bounce``, :func:`bounce_light`: a term the datasets
+  leave out); ``--noise-draws`` averages every row over sensor-noise draws;
 * ``mitsuba`` (``--mitsuba SPP``): with-minus-without photographs by Mitsuba 3's particle tracer
   at 6 bounces (:func:`mitsuba_people`);
 * ``capture-all``: every capture effect at 1x ``tripod`` together, on the fit's person light;
@@ -74,7 +76,7 @@ from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.render.variation import WORLD_EFFECTS
 
 COLUMNS = ("room", "reading", "condition", "magnitude", "posture_accuracy", "posture3_accuracy", "error_cm", "people")
-CAMERA_CONDITIONS = ("footprint-offsets", "camera-f32", "camera-fit-footprint", "camera-gain-corrected", "relay-offsets", "relay-averaged", "shadow-averaged", "pixel-integrated", "pixel-integrated-2x2", "shadow", "camera", "clothing-dark", "clothing-light",
+CAMERA_CONDITIONS = ("bounce", "footprint-offsets", "camera-f32", "camera-fit-footprint", "camera-gain-corrected", "relay-offsets", "relay-averaged", "shadow-averaged", "pixel-integrated", "pixel-integrated-2x2", "shadow", "camera", "clothing-dark", "clothing-light",
                      "all", "capture-all", "camera-mitsuba-people", "mitsuba")
 CLOTHING = {"clothing-dark": 0.05, "clothing-light": 0.9}
 SHADOW_SAMPLES = 1024
@@ -314,6 +316,33 @@ FINE_FOOTPRINT = 32
 ``CAMERA_FOOTPRINT``: brute force converges about as 1/n, so 32 x 32 is about twice as close)."""
 
 
+BOUNCE_RELAY = 4096
+"""Relay points of the ``bounce`` photographs' fifth bounce (``nlos_bounce``, ``render/bounce.py``)."""
+
+
+def bounce_light(room: Room, cache: Path) -> dict[str, np.ndarray]:
+    """The held-out people's light over one more static bounce (``nlos_bounce``: the room relaying
+    the spot onto the body and the body's light to the camera), at the camera photographs' footprint
+    and seed (cached): ``bounce_nlos``."""
+    from nlos_spotlight.data.store import atomic_npz
+    from nlos_spotlight.render.settings import RenderSettings
+
+    path = cache / room.name / f"bounce-{len(room.indices)}-f{CAMERA_FOOTPRINT}j-s{BOUNCE_RELAY}.npz"
+    if (got := cached(path, room)) is not None:
+        return {k: v for k, v in got.items() if k != "indices"}
+    builder, dcfg = room_builder(room.path, fit_config(room.path))
+    rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=CAMERA_FOOTPRINT, footprint_jitter=True,
+                        spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
+                        shadow_samples=BOUNCE_RELAY, footprint_seed=CAMERA_SEED, relay_offset=0.5, device="cpu")
+    t0 = time.perf_counter()
+    got = builder.rerender(room.indices, rs, room.aim, ("nlos_bounce",))
+    out = {"bounce_nlos": got["nlos_bounce"], "bounce_seconds": np.float64(time.perf_counter() - t0)}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_npz(path, indices=np.asarray(room.indices), **out)
+    print(f"{room.name}: the fifth bounce of {len(room.indices)} people in {out['bounce_seconds']:.0f} s", flush=True)
+    return out
+
+
 def fine_light(room: Room, cache: Path) -> dict[str, np.ndarray]:
     """The held-out people's scattered light (``nlos``, ``nlos_ambient``) at :data:`FINE_FOOTPRINT`
     (cached): ``f32_nlos``, ``f32_nlos_ambient``."""
@@ -528,6 +557,9 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float]):
                                                               c["cam_nlos_ambient"]), ideal
     for name, a in CLOTHING.items():
         yield name, 1.0, cam(np.full_like(albedo, a)), ideal
+    if "bounce_nlos" in c:  # the camera photographs with the person's light over one more bounce
+        yield "bounce", 1.0, with_person_light(t, room.spot, c["cam_nlos"] + c["bounce_nlos"] + c["cam_nlos_shadow"],
+                                               c["cam_nlos_ambient"]), ideal
     yield "all", 1.0, cam(albedo), tripod.capture_effects
     if "mitsuba_presence" in c:  # the first people only: ours beside Mitsuba's on the same people
         n = len(c["mitsuba_presence"])
@@ -727,6 +759,8 @@ def main(argv=None) -> int:
                                                             "(WORLD_EFFECTS; empty: none; each renders the people again)")
     ap.add_argument("--camera-draws", type=int, default=1, help="independent draws averaged in each camera "
                                                                  "photograph (its Monte Carlo noise over sqrt(draws))")
+    ap.add_argument("--bounce", action="store_true", help="also the camera photographs with the person's light over "
+                    "one more static bounce (nlos_bounce; about 5 s a person)")
     ap.add_argument("--camera-grid", action="store_true", help="the camera photographs as before jittering: "
                     "16 x 16 sub-samples at their cells' centres (biased about 3.6%% in the copy room)")
     ap.add_argument("--fine", action="store_true", help="also the camera photographs with the person's light at "
@@ -765,6 +799,8 @@ def main(argv=None) -> int:
         people = None
         if not (args.no_render or args.world_only):
             fine = fine_light(room, Path(args.cache)) if args.fine else {}
+            if args.bounce:
+                fine.update(bounce_light(room, Path(args.cache)))
             people = {**fine, **camera_people(room, Path(args.cache), args.pixel_samples),
                       **camera_photographs(room, Path(args.cache), args.camera_draws, args.camera_grid),
                       **fit_reproduction(room, Path(args.cache))}
@@ -784,6 +820,11 @@ def main(argv=None) -> int:
                 "pixel_integration_gap_2x2": rel(people["fine_nlos"], people["cam_nlos"]),
                 "shadow_over_nlos": rel(people["cam_nlos"] + people["cam_nlos_shadow"], people["cam_nlos"]),
                 "camera_draws": args.camera_draws}
+            if "bounce_nlos" in people:  # the fifth bounce against the light of the first four
+                notes[f"{name}:{reading}"]["bounce_over_nlos"] = rel(people["cam_nlos"] + people["bounce_nlos"],
+                                                                     people["cam_nlos"])
+                notes[f"{name}:{reading}"]["bounce_sum_over_nlos"] = float(people["bounce_nlos"].sum()
+                                                                           / people["cam_nlos"].sum())
             for k in ("cam_noise_nlos", "cam_noise_shadow"):  # Monte Carlo noise left in the camera photographs
                 if k in people:
                     notes[f"{name}:{reading}"][f"{k}_median"] = float(np.median(people[k]))

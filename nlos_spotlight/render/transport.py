@@ -49,7 +49,7 @@ INTER_CACHE_SIZE = 256
 FOOTPRINT_LOOP_CHUNK = 16384
 """Camera sub-samples per block of the footprint-sampled gather in the compiled loops (its memory
 is a few rays a sub-sample, so blocks can be large: one ray call each)."""
-COMPONENTS = ("direct", "interreflection", "ambient", "nlos", "nlos_ambient", "nlos_shadow")
+COMPONENTS = ("direct", "interreflection", "ambient", "nlos", "nlos_ambient", "nlos_shadow", "nlos_bounce")
 DEFAULT_COMPONENTS = ("direct", "ambient", "nlos", "nlos_ambient")
 
 
@@ -267,6 +267,8 @@ class Renderer:
             out.components["ambient"] = self.ambient_image
         if "nlos_shadow" in components:
             out.components["nlos_shadow"] = self._shadow(y, person, translation, relay_offset)
+        if "nlos_bounce" in components:
+            out.components["nlos_bounce"] = self._shadow(y, person, translation, relay_offset, bounce=True)
         want = [c for c in ("nlos", "nlos_ambient") if c in components]
         if want:
             per = self._person_terms(y, person, translation, want)
@@ -291,9 +293,11 @@ class Renderer:
         sup = torch.nonzero(y).flatten()
         return torch.einsum("ptc,t->pc", self.D[:, sup], y[sup]).reshape(*self.shape, 3)
 
-    def _shadow(self, y: torch.Tensor, person: Person | None, translation, offset: float | None) -> torch.Tensor:
+    def _shadow(self, y: torch.Tensor, person: Person | None, translation, offset: float | None,
+                bounce: bool = False) -> torch.Tensor:
         """``nlos_shadow``: the spot light the body blocks on one static bounce (``render/shadow.py``),
-        relayed by the points of strata ``offset``."""
+        relayed by the points of strata ``offset``; with ``bounce``, ``nlos_bounce``: the person's
+        light over one more static bounce through the same points (``render/bounce.py``)."""
         if person is None:
             return torch.zeros(*self.shape, 3, device=self.device, dtype=self.dtype)
         from .shadow import SpotShadow
@@ -307,7 +311,12 @@ class Renderer:
                 cache.pop(next(iter(cache)))  # the oldest set
             cache[key] = SpotShadow(self, offset)
         t, batched = self._translations(translation)
-        imgs = [cache[key].image(y, person, tb) for tb in t]
+        if bounce:
+            from .bounce import bounce_image
+
+            imgs = [bounce_image(cache[key], y, person, tb) for tb in t]
+        else:
+            imgs = [cache[key].image(y, person, tb) for tb in t]
         return torch.stack(imgs) if batched else imgs[0]
 
     def _active(self, y: torch.Tensor) -> torch.Tensor:

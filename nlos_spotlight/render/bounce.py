@@ -1,0 +1,142 @@
+"""The person's light over one more static bounce: the ``nlos_bounce`` component.
+
+``nlos`` follows three bounces (P -> x_s -> body -> x_p -> C). A photograph holds every bounce;
+the next order has two paths through a static point h, both ways around the body:
+
+    in:   P -> x_s -> h -> body -> x_p -> C   (the spot's light relayed onto the body by the room)
+    out:  P -> x_s -> body -> h -> x_p -> C   (the body's light relayed to the camera's points)
+
+With L_s(h) the radiance the spot leaves on h (its first leg, as ``nlos_shadow``'s E(h) times
+rho_h), L_o the body's outgoing radiance (``nlos``'s), V the visibility with the body in place and
+V_S the static one,
+
+    in:   L_o' = albedo_o / pi  sum_h L_s(h) G(h, o) V(h, o) A_h,   gathered to x_p as ``nlos`` is;
+    out:  L_p  = sum_h f_p(h -> x_p -> C) G(h, x_p) V_S(h, x_p) A_h rho_h  sum_o L_o G(o, h) V(o, h) A_o.
+
+In the diffuse corner scene Mitsuba's particle tracer finds the fifth bounce 20% of the person's
+scattered light and the sixth 9% more (``max_depth`` 5 and 6 against 4), the extra light's pattern
+correlated 0.78 with ``nlos``'s: not a gain alone.
+
+Approximations: h are the ``nlos_shadow`` relay points (``shadow_samples`` strata of the static
+area, Lambertian of albedo kd + ks); the body does not block h -> x_p on the way out, nor the spot's
+first leg on the way in (the shadow's own terms); light from the body to itself is left out. No
+gradient (the body's visibility is held fixed).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import torch
+
+from .brdf import brdf
+from .kernels import pair_geometry
+
+if TYPE_CHECKING:
+    from .shadow import SpotShadow
+
+H_CHUNK = 1024
+"""Relay points per block of the body <-> h pairs (bounds memory: N x 1024 pairs a block)."""
+
+
+def spot_radiance(sh: "SpotShadow", y: torch.Tensor) -> torch.Tensor:
+    """(2, H, 3) radiance the spot leaves on each relay point's front [0] and back [1] side, through
+    static visibility only; kept per spot vector (it does not depend on the person)."""
+    r, h = sh.r, sh.h
+    key = tuple(torch.nonzero(y).flatten().tolist()), tuple(y[y != 0].tolist())
+    cache = sh.__dict__.setdefault("_spot_light", {})
+    if key in cache:
+        return cache[key]
+    idx = r._active(y)
+    src = {k: v[idx] for k, v in r.spot_pts.items()}
+    w = r.spot_flux[idx] * y[r.spot_owner[idx]].unsqueeze(-1)
+    to_proj = r.spot_to_proj[idx]
+    lit = (src["normal"] * to_proj).sum(-1, keepdim=True)
+    out = torch.zeros(2, len(h["pos"]), 3, device=r.device, dtype=r.dtype)
+    for a in range(0, len(h["pos"]), H_CHUNK):
+        sl = slice(a, a + H_CHUNK)
+        geo = pair_geometry(src["pos"], src["normal"], h["pos"][sl], h["normal"][sl])
+        need = geo.cos_a * lit > 0
+        vs = r._visible(r.rays, src["pos"], src["normal"], h["pos"][sl], h["normal"][sl], need, geo)
+        f = brdf(src["normal"].unsqueeze(1), to_proj.unsqueeze(1), geo.dir_ab, src["kd"].unsqueeze(1),
+                 src["ks"].unsqueeze(1), src["alpha"].unsqueeze(1))
+        c = f * (geo.g * vs).unsqueeze(-1) * w.unsqueeze(1)  # (S, h, 3) irradiance parts
+        front = (geo.cos_b > 0).to(r.dtype).unsqueeze(-1)  # h is two-sided: light leaves the side it came in
+        out[0, sl] = (c * front).sum(0)
+        out[1, sl] = (c * (1 - front)).sum(0)
+    cache[key] = out * sh.rho
+    return cache[key]
+
+
+def body_relay(sh: "SpotShadow", rays, o: torch.Tensor, normal: torch.Tensor, l_front: torch.Tensor,
+               l_back: torch.Tensor, area: torch.Tensor, albedo: torch.Tensor, l_relay: torch.Tensor,
+               closed: bool = True):
+    """Both ways between the body's samples o (N) and the relay points h (H), one visibility:
+    returns the extra outgoing radiance of the body's front and back (N, 3) lit by ``l_relay``
+    (2, H, 3), and the radiance (2, H, 3) each h's sides leave with the body's light ``l_front`` /
+    ``l_back`` (N, 3). A ``closed`` body exchanges light through its front only."""
+    r, h = sh.r, sh.h
+    e_front = torch.zeros(len(o), 3, device=r.device, dtype=r.dtype)
+    e_back = torch.zeros_like(e_front)
+    out = torch.zeros(2, len(h["pos"]), 3, device=r.device, dtype=r.dtype)
+    for a in range(0, len(h["pos"]), H_CHUNK):
+        sl = slice(a, a + H_CHUNK)
+        geo = pair_geometry(o, normal, h["pos"][sl], h["normal"][sl])
+        need = ((geo.cos_a > 0) if closed else (geo.cos_a != 0)) & (geo.cos_b != 0)
+        w = geo.g * r._visible(rays, o, normal, h["pos"][sl], h["normal"][sl], need, geo)  # (N, h)
+        o_front = (geo.cos_a > 0).to(r.dtype)  # h lies before the body sample's front
+        h_front = (geo.cos_b > 0).to(r.dtype)  # the body sample lies before h's front
+        ah = sh.area[sl]
+        lr = l_relay[:, sl] * ah.unsqueeze(-1)  # (2, h, 3) radiance times area
+        e_front += (w * o_front * h_front) @ lr[0] + (w * o_front * (1 - h_front)) @ lr[1]
+        e_back += (w * (1 - o_front) * h_front) @ lr[0] + (w * (1 - o_front) * (1 - h_front)) @ lr[1]
+        lo = (l_front * area.unsqueeze(-1), l_back * area.unsqueeze(-1))
+        for side, hs in ((0, h_front), (1, 1 - h_front)):
+            m = w * hs
+            out[side, sl] = (m * o_front).T @ lo[0] + (m * (1 - o_front)).T @ lo[1]
+    scale = albedo / math.pi
+    return e_front * scale, e_back * scale, out * sh.rho[None]
+
+
+def relayed_to_camera(sh: "SpotShadow", body, l_relay: torch.Tensor) -> torch.Tensor:
+    """(H, W, 3) the camera's points lit by the relay points' radiance (2, H, 3): the shadow's
+    second leg with nothing blocked (``SpotShadow._second_leg`` and its compiled twin)."""
+    r = sh.r
+    rec = r.recv_t
+    cos_c = (rec.pts["normal"] * rec.to_cam).sum(-1, keepdim=True)
+    out = torch.zeros(len(rec.pixel), 3, device=r.device, dtype=r.dtype)
+    zero = torch.zeros_like(l_relay)
+    for g, (rows, hs) in enumerate(sh._groups(rec)):
+        if len(hs) == 0:
+            continue
+        hg = {k: v[hs] for k, v in sh.h.items()}
+        vis = sh._static_visibility(g, rows, hs, cos_c)
+        for a in range(0, len(rows), r.settings.chunk):
+            b = rows[a:a + r.settings.chunk]
+            cross = torch.zeros(len(b), len(hs), dtype=torch.bool, device=r.device)
+            leg = sh._second_leg_loops if vis is not None and r.device.type == "cpu" \
+                and not rec.glossy[b].any() else sh._second_leg
+            out[b] = leg(body, rec, b, cos_c[b], hg, sh.area[hs], l_relay[:, hs], zero[:, hs], cross,
+                         None if vis is None else vis[a:a + r.settings.chunk])
+    return r._pixels(rec.scale(out), rec)
+
+
+def bounce_image(sh: "SpotShadow", y: torch.Tensor, person, t: torch.Tensor) -> torch.Tensor:
+    """(H, W, 3) ``nlos_bounce`` of spot vector ``y`` and the body moved by ``t`` (module docstring)."""
+    from .rays import SceneRays
+
+    r = sh.r
+    with torch.no_grad():
+        t_np = t.detach().cpu().numpy().astype("float64")
+        rays = SceneRays(r.rays, person.translated_mesh(t_np))
+        body = r.body_rays(person.mesh.vertices + t_np, person.mesh.faces)
+        pts = {k: r._t(getattr(person, k)) for k in ("pos", "normal", "area", "albedo")}
+        o = pts["pos"] + t
+        lf, lb = r._person_radiosity(y, person, pts, o, rays)  # the body's light from the spot
+        ef, eb, l_out = body_relay(sh, rays, o, pts["normal"], lf, lb, pts["area"], pts["albedo"],
+                                   spot_radiance(sh, y), person.closed)
+        return r._gather(person, pts, o, rays, ef, eb) + relayed_to_camera(sh, body, l_out)
+
+
+__all__ = ["bounce_image", "body_relay", "relayed_to_camera", "spot_radiance"]
