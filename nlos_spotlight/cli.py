@@ -262,6 +262,8 @@ def cmd_fit(args: argparse.Namespace) -> None:
                if getattr(args, k) is not None}
     if args.footprint_sampling is not None:
         changes["footprint_jitter"] = args.footprint_sampling == "jittered"
+    if args.bounce is not None:
+        changes["bounce"] = args.bounce == "on"
     if "burst" in changes:
         changes["burst_frames"] = changes.pop("burst")
     if args.no_projection:
@@ -509,6 +511,9 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--footprint", dest="footprint_sampling", choices=("grid", "jittered"),
                    help="the footprint's sub-samples at their cells' centres (grid) or jittered in them, a draw "
                         "per set of people (jittered: an unbiased pixel mean)")
+    f.add_argument("--bounce", choices=("on", "off"), help="also each person's light over one more static bounce "
+                   "(the room relaying the spot onto the body and the body's light to the camera), in every "
+                   "training photograph (default off)")
     f.add_argument("--shadow-samples", type=int, help="static points relaying the spot light each body blocks "
                                                       "(default 4096); 0: the shadow term left out")
     f.add_argument("--shadow-relay", choices=("per-person", "fixed"), help="the shadow's relay points drawn "

@@ -84,6 +84,9 @@ class SceneTensors:
     spot ``shadow_spot`` (a room model's shadow step, ``fit/shadow.py``); None: left out."""
     shadow_spot: int = -1
     """The candidate ``shadow`` belongs to."""
+    bounce: torch.Tensor | None = None
+    """(N, H, W, 3) each person's light over one more static bounce (``nlos_bounce``) under
+    ``shadow_spot``, at the albedo the person was rendered with; None: left out."""
     layers: object | None = None
     """The room's static light under its fixed spot at sub-pixel resolution
     (``render.variation.StaticLayers``): what the capture variation moves; None: ideal captures only."""
@@ -131,7 +134,7 @@ class SceneTensors:
 
 
 PER_SAMPLE = ("u", "v", "nlos_ambient", "target", "posture", "trajectory", "flash_nlos", "transport", "nuisance",
-              "albedo", "shadow")
+              "albedo", "shadow", "bounce")
 """SceneTensors fields indexed by sample (the rest describe the room)."""
 
 

@@ -55,6 +55,11 @@ class FitConfig:
     """Static points relaying the spot light each person's body blocks (``nlos_shadow``, in every real
     with-minus-without photograph), rendered under the chosen spot and added to every training
     photograph (``fit/shadow.py``); 0 leaves it out (the recipe before it)."""
+    bounce: bool = False
+    """Also each person's light over one more static bounce (``nlos_bounce``, ``render/bounce.py``:
+    the room relaying the spot onto the body and the body's light to the camera; 24% of the
+    person's light in the copy room), rendered in the shadow step through its relay points and
+    added to every training photograph."""
     shadow_relay: str = "per-person"
     """The shadow's relay points: 'per-person' (each person its own strata offset, one of
     ``fit.shadow.RELAY_SETS`` a block, so that their sampling error is noise, not a pattern the
@@ -102,6 +107,9 @@ class FitConfig:
         if isinstance(self.shadow_samples, bool) or not isinstance(self.shadow_samples, int) \
                 or not 0 <= self.shadow_samples <= 1_000_000:
             raise NlosError(f"fit: shadow_samples must be an integer from 0 (off) to 1000000, got {self.shadow_samples!r}")
+        if self.bounce is not False and (self.bounce is not True or self.shadow_samples == 0):
+            raise NlosError(f"--bounce: expected on or off, and on needs the shadow's relay points (shadow_samples > 0), "
+                            f"got {self.bounce!r} with shadow_samples {self.shadow_samples}")
         if self.shadow_relay not in ("per-person", "fixed"):
             raise NlosError(f"--shadow-relay: expected 'per-person' or 'fixed', got {self.shadow_relay!r}")
         if self.clothing not in ("camera", "dataset"):
@@ -159,7 +167,7 @@ MAX_WORKERS = 256
 
 
 BEFORE = {"capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "footprint_jitter": False, "shadow_samples": 0,
-          "clothing": "dataset", "shadow_relay": "fixed", "world_variation": "ideal", "ceiling_people": 0}
+          "clothing": "dataset", "bounce": False, "shadow_relay": "fixed", "world_variation": "ideal", "ceiling_people": 0}
 """What a room model fitted before each of these settings existed did (see their docstrings)."""
 
 

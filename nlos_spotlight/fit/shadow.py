@@ -78,8 +78,9 @@ WORLD_COMPONENTS = ("nlos", "nlos_ambient", "nlos_shadow")
 
 
 def components(cfg: FitConfig) -> tuple[str, ...]:
-    """What each block of this fit stores."""
-    return ("nlos_shadow",) if cfg.world_variation == "ideal" else WORLD_COMPONENTS
+    """What each block of this fit stores (``nlos_bounce`` too with ``cfg.bounce``)."""
+    own = ("nlos_shadow",) if cfg.world_variation == "ideal" else WORLD_COMPONENTS
+    return own + (("nlos_bounce",) if cfg.bounce else ())
 
 
 def _in_worlds(builder, settings, aim: np.ndarray, indices: list[int], offsets: list[float] | None,
@@ -122,7 +123,7 @@ def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int]
     settings = dcfg.render_settings(shadow_samples=fc.shadow_samples, device=resolve_device(fc.render_device))
     aim = np.asarray(aim, np.float64)
     if fc.world_variation == "ideal":
-        got = builder.rerender(indices, settings, aim, ("nlos_shadow",), relay_offsets(indices, fc))
+        got = builder.rerender(indices, settings, aim, components(fc), relay_offsets(indices, fc))
     else:
         got = _in_worlds(builder, settings, aim, indices, relay_offsets(indices, fc), fc, block)
     arrays = {}
@@ -143,10 +144,11 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
 
     out, d = Path(out), shadow_dir(out)
     meta = {"face": int(spot["face"]), "aim": [float(a) for a in spot["aim"]], "shadow_samples": cfg.shadow_samples,
-            "pixel_footprint": cfg.pixel_footprint, "footprint_jitter": cfg.footprint_jitter,
+            "pixel_footprint": cfg.pixel_footprint, "footprint_jitter": cfg.footprint_jitter, "bounce": cfg.bounce,
             "shadow_relay": cfg.shadow_relay,
             "world_variation": cfg.world_variation}
-    stored = {"shadow_relay": "fixed", "world_variation": "ideal", "footprint_jitter": False, **json.loads((d / "meta.json").read_text())} \
+    stored = {"shadow_relay": "fixed", "world_variation": "ideal", "footprint_jitter": False, "bounce": False,
+              **json.loads((d / "meta.json").read_text())} \
         if (d / "meta.json").exists() else meta
     if stored != meta:
         for p in d.glob("block-*.npz"):  # another spot or setting: nothing to keep

@@ -81,12 +81,13 @@ def with_shadow(s, out: Path, cfg: FitConfig, spot: int):
     if shadow.shape[0] != s.num_samples or shadow.shape[1:] != s.nlos_ambient.shape[1:]:
         raise NlosError(f"{out}/shadow: {shadow.shape[0]} people's shadow for {s.num_samples} people; "
                         "rerun nlos fit with --resume")
+    bounce = got.get("nlos_bounce")
     if "nlos" not in got:
-        return dataclasses.replace(s, shadow=shadow, shadow_spot=int(spot))
+        return dataclasses.replace(s, shadow=shadow, shadow_spot=int(spot), bounce=bounce)
     u = torch.zeros(s.num_samples, s.u.shape[1], 1, dtype=s.u.dtype)
     u[:, spot, 0] = 1
     return dataclasses.replace(s, u=u, v=got["nlos"][:, None], nlos_ambient=got["nlos_ambient"].to(s.nlos_ambient.dtype),
-                               shadow=shadow, shadow_spot=int(spot))
+                               shadow=shadow, shadow_spot=int(spot), bounce=bounce)
 
 
 def heldout_positions(s, cfg: FitConfig):

@@ -52,6 +52,9 @@ def form_parts(s: SceneTensors, idx: torch.Tensor, y: torch.Tensor | None, mode:
     if s.shadow is not None:  # blocked spot light: scales with the spot, not with the clothing
         _check_shadow(s, y)
         nlos = nlos + y[s.shadow_spot] * s.shadow[idx].to(nlos.dtype)
+    if s.bounce is not None:  # the body's light over one more bounce: scales with both
+        _check_shadow(s, y)
+        nlos = nlos + lit * y[s.shadow_spot] * s.bounce[idx].to(nlos.dtype)
     return nlos, person_ambient, static
 
 

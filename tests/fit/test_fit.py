@@ -578,3 +578,40 @@ def test_jittered_footprint_renders_each_set_of_people_with_its_own_draw(room_di
         scale = np.abs(a).max()
         np.testing.assert_allclose(s, a, rtol=2e-3, atol=2e-3 * scale)
         assert np.abs(s - f).max() > 0.02 * scale
+
+
+def test_bounce_is_stored_and_trained_on(fitted, room_dir, tmp_path):
+    """``--bounce on``: the shadow step stores each person's ``nlos_bounce`` beside its shadow (a person
+    rendered again gives its block's image), and training photographs add it scaled with the clothing."""
+    import torch
+
+    from nlos_spotlight.data.generate import plan
+    from nlos_spotlight.data.scene_builder import SceneBuilder
+    from nlos_spotlight.data.tensors import load_split
+    from nlos_spotlight.fit.shadow import load_block_light, relay_offsets
+    from nlos_spotlight.fit.train import with_shadow
+    from nlos_spotlight.train.imaging import form_parts
+
+    src, report = fitted
+    cfg = dataclasses.replace(TINY, bounce=True)
+    out = tmp_path / "bounce"
+    fit_room(str(room_dir), out, cfg, {}, progress=False, people_from=src)
+    got = load_block_light(out, cfg)
+    assert set(got) == {"nlos_shadow", "nlos_bounce"} and (got["nlos_bounce"] >= 0).all() and got["nlos_bounce"].max() > 0
+    dcfg = dataclasses.replace(dataset_config(cfg, out / "room"), room=str((out / "room").resolve()))
+    k = int(np.argmax(got["nlos_bounce"].reshape(len(got["nlos_bounce"]), -1).sum(1)))
+    idx = [cfg.transport_people + k]
+    settings = dcfg.render_settings(shadow_samples=cfg.shadow_samples)
+    again = SceneBuilder(dcfg, plan(dcfg)[0], out / "data").rerender(
+        idx, settings, np.asarray(report["spot"]["aim"]), ("nlos_bounce",), relay_offsets(idx, cfg))["nlos_bounce"][0]
+    np.testing.assert_allclose(got["nlos_bounce"][k], again, rtol=2e-3, atol=2e-3 * np.abs(again).max())
+    s, = load_split(out / "data", "train", [], samples="images")
+    s = with_shadow(s, out, cfg, report["spot"]["face"])
+    y = torch.zeros(len(s.faces))
+    y[report["spot"]["face"]] = 1.0
+    i = torch.tensor([k])
+    base = form_parts(s, i, y)[0] - form_parts(dataclasses.replace(s, bounce=None), i, y)[0]
+    np.testing.assert_allclose(base[0].numpy(), s.bounce[k].numpy(), rtol=1e-5, atol=1e-9)
+    half = form_parts(s, i, y, albedo=s.albedo[i] * 0.5)[0] - form_parts(dataclasses.replace(s, bounce=None), i, y,
+                                                                          albedo=s.albedo[i] * 0.5)[0]
+    np.testing.assert_allclose(half[0].numpy(), 0.5 * s.bounce[k].numpy(), rtol=1e-4, atol=1e-9)
