@@ -45,7 +45,7 @@ def spot_radiance(sh: "SpotShadow", y: torch.Tensor) -> torch.Tensor:
     static visibility only; kept per spot vector (it does not depend on the person)."""
     r, h = sh.r, sh.h
     key = tuple(torch.nonzero(y).flatten().tolist()), tuple(y[y != 0].tolist())
-    cache = sh.__dict__.setdefault("_spot_light", {})
+    cache = sh._spot_light
     if key in cache:
         return cache[key]
     idx = r._active(y)

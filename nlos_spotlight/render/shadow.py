@@ -89,6 +89,7 @@ class SpotShadow:
         self.rho = (self.h["kd"] + self.h["ks"]) / math.pi
         self._vis: dict[int, torch.Tensor] = {}  # group -> static visibility (``_static_visibility``)
         self._group_cache: list | None = None  # ``_groups``: the renderer's sub-samples do not change
+        self._spot_light: dict = {}  # spot vector -> the radiance it leaves on each h (``bounce.spot_radiance``)
 
     def image(self, y: torch.Tensor, person: Person, t: torch.Tensor) -> torch.Tensor:
         """(H, W, 3) ``nlos_shadow`` (negative) of spot vector ``y`` and the body moved by ``t``."""
