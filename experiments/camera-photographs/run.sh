@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Room models on photographs a camera could take (issue 35): the pixel's exact mean (jittered
+# footprints), the person's light over one more bounce, a scan's smooth warp. Hours on 2 cores;
+# every step resumes. Not run by CI.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/../.."
+PY=.venv/bin/python
+ROOMS=benchmarks/configs/rooms
+
+# the default recipe (grid footprints), the copy room and the living room: 3,000 people each
+$PY experiments/people-curve/people_curve.py --rooms copyroom,icl_livingroom2 --people 3000 --out out/people-curve2 \
+    --csv out/people-curve2/people-curve.csv --quiet
+# the same copy room with jittered footprints (a draw per set of people), and with the fifth bounce
+$PY -m nlos_spotlight.cli fit --config $ROOMS/copyroom.yaml --out out/fits7/copyroom-jitter --people 3000 \
+    --footprint jittered --quiet
+$PY -m nlos_spotlight.cli fit --config $ROOMS/copyroom.yaml --out out/fits7/copyroom-bounce --people 3000 \
+    --people-from out/people-curve2/copyroom-3000 --bounce on --quiet
+# read on camera photographs (jittered 8 x 8, 4 draws averaged), with the fifth bounce, under drift
+$PY benchmarks/robustness.py --model copyroom:relay=out/people-curve2/copyroom-3000 \
+    --model copyroom:jitter=out/fits7/copyroom-jitter --camera-draws 4 --noise-draws 5 --bounce \
+    --cache out/robustness7 --out out/robustness7/copyroom-ab.csv
+$PY benchmarks/robustness.py --model copyroom:bounce=out/fits7/copyroom-bounce --camera-draws 4 --noise-draws 5 \
+    --bounce --cache out/robustness7 --out out/robustness7/copyroom-bounce.csv
+$PY benchmarks/robustness.py --model livingroom:before=out/fits/livingroom-before \
+    --model livingroom:relay=out/people-curve2/icl_livingroom2-3000 --camera-draws 4 --noise-draws 5 --bounce \
+    --cache out/robustness7 --out out/robustness7/livingroom.csv
+# a scan's geometry error: 2 mm per vertex and a 1 cm smooth warp (tripod)
+$PY benchmarks/robustness.py --model copyroom:relay=out/people-curve2/copyroom-3000 --world-magnitudes 1 \
+    --world-effects geometry,warp --world-only --noise-draws 5 --cache out/robustness7 --out out/robustness7/copyroom-world.csv
