@@ -262,6 +262,12 @@ def cmd_fit(args: argparse.Namespace) -> None:
                if getattr(args, k) is not None}
     if args.footprint_sampling is not None:
         changes["footprint_jitter"] = args.footprint_sampling == "jittered"
+    if args.method is not None:
+        from .evaluate.methods import fit_method
+
+        changes["method"] = args.method
+        if args.method != "ours" and args.policy is None:  # a baseline aims with its own policy
+            changes["policy"] = fit_method(args.method).policy
     if args.bounce is not None:
         changes["bounce"] = args.bounce == "on"
     if "burst" in changes:
@@ -497,6 +503,9 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--up", help="a bare scan's up axis: x, y, z, -x, -y, -z (default: detected)")
     f.add_argument("--people", type=int, help="synthetic training people (default 3000)")
     f.add_argument("--policy", help="spot policy: oracle (default), ien (with --checkpoint), adaptive, center, random")
+    f.add_argument("--method", help="what is fitted (nlos evaluate's methods that aim a spot): ours (default: the "
+                                    "--policy spot and ResNet-18), al_resnet, center_resnet, random_resnet, "
+                                    "oracle_resnet, chandran (Adaptive Lighting's spot and Chandran's CNN), ien_cnn")
     f.add_argument("--checkpoint", help="trained run whose IEN picks the spot (--policy ien)")
     f.add_argument("--burst", type=int, help="frames averaged per capture (default 16)")
     f.add_argument("--workers", type=int, help="processes rendering people (default 2)")

@@ -48,6 +48,30 @@ TABLE3 = ("ien_cnn", "al_resnet", "random_resnet", "center_resnet", "ours_task_o
 BY_NAME = {m.name: m for m in METHODS}
 
 
+FIT_POLICIES = ("oracle", "ien", "adaptive", "center", "random")
+"""Spot policies ``nlos fit`` can aim with (the flash and the projector off light no spot to aim)."""
+
+
+def fittable(m: Method) -> bool:
+    """Whether ``nlos fit --method`` can fit ``m`` in a room: a spot policy and an image network,
+    no setting of the IEN's own training."""
+    from ..models.registry import NETWORKS
+
+    return m.policy in FIT_POLICIES and m.arch in NETWORKS and not m.overrides
+
+
+def fit_method(name: str) -> Method:
+    """The method ``nlos fit --method NAME`` fits ('ours': the fit's ``--policy`` spot and ResNet-18),
+    or a one-line error naming those it can."""
+    from ..errors import NlosError
+
+    m = BY_NAME.get(name)
+    if m is None or not fittable(m):
+        ok = ", ".join(k for k, v in BY_NAME.items() if fittable(v))
+        raise NlosError(f"--method: nlos fit fits {ok}; not {name!r}")
+    return m
+
+
 def select(names: list[str] | None) -> list[Method]:
     """Methods by name (all when ``names`` is empty); ``ours`` is always included."""
     from ..errors import NlosError

@@ -25,6 +25,10 @@ class FitConfig:
     """The first people, rendered under every candidate spot: the spot policies' SNR."""
     policy: str = "oracle"
     """Spot policy: exhaustive physics search (oracle) or one of ``POLICIES``."""
+    method: str = "ours"
+    """What is fitted, from the methods of ``evaluate/methods.py`` (``fit_method``): 'ours' (the
+    ``policy`` spot and ResNet-18), or a baseline that aims with a spot (e.g. 'chandran': Adaptive
+    Lighting's spot and Chandran's CNN), whose own policy ``policy`` must then be."""
     checkpoint: str = ""
     """Trained run whose IEN picks the spot (policy 'ien')."""
     seed: int = 0
@@ -143,6 +147,11 @@ class FitConfig:
             raise NlosError("--world-variation renders the people again with their shadow: it needs --shadow-samples > 0")
         if self.policy not in POLICIES:
             raise NlosError(f"--policy: expected one of {', '.join(POLICIES)}, got {self.policy!r}")
+        from ..evaluate.methods import fit_method
+
+        m = fit_method(self.method)
+        if self.method != "ours" and self.policy != m.policy:
+            raise NlosError(f"--method {self.method} aims with the {m.policy} spot, not --policy {self.policy}")
         if (self.policy == "ien") != bool(self.checkpoint):
             raise NlosError("--policy ien needs --checkpoint RUN (a run trained with policy 'ien'), "
                             "and --checkpoint goes only with --policy ien")
@@ -166,7 +175,7 @@ MAX_WORKERS = 256
 """Most rendering processes a fit starts (each holds about 1 GB: the room's renderer)."""
 
 
-BEFORE = {"capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "footprint_jitter": False, "shadow_samples": 0,
+BEFORE = {"method": "ours", "capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "footprint_jitter": False, "shadow_samples": 0,
           "clothing": "dataset", "bounce": False, "shadow_relay": "fixed", "world_variation": "ideal", "ceiling_people": 0}
 """What a room model fitted before each of these settings existed did (see their docstrings)."""
 

@@ -53,6 +53,15 @@ def capture_record(out: Path, cfg: FitConfig, face: int) -> dict:
                       "with the room scene's sensor overrides)", "sensor": sensor.to_dict()}
 
 
+def _network(cfg: FitConfig) -> str:
+    """The room model's network in words (``--method``)."""
+    from ..evaluate.methods import fit_method
+
+    m = fit_method(cfg.method)
+    net = "resnet10-narrow (half stem)" if m.arch == "resnet18" else f"{m.arch} ({m.label})"
+    return f"{net}, photograph minus empty-room photograph"
+
+
 def write_fit_report(out: Path, cfg: FitConfig, room: dict, spot: dict, result, timing: dict,
                      ceiling: dict | None = None) -> dict:
     """Write report.json, the figures and report.html (atomically); returns report.json's content.
@@ -74,9 +83,8 @@ def write_fit_report(out: Path, cfg: FitConfig, room: dict, spot: dict, result, 
         "spot_policies": spot.get("policies"),
         "ceiling": None if ceiling is None else {k: v for k, v in ceiling.items() if k not in ("key", "indices")},
         "capture": capture_record(out, cfg, spot["face"]),
-        "training": {"people": cfg.people, "policy": cfg.policy, "steps": result.steps,
-                     "seconds": result.seconds, "network": "resnet10-narrow (half stem), photograph minus "
-                                                           "empty-room photograph"},
+        "training": {"people": cfg.people, "policy": cfg.policy, "method": cfg.method, "steps": result.steps,
+                     "seconds": result.seconds, "network": _network(cfg)},
         "room": room, "timing_s": timing, "config": cfg.to_dict(),
         "frame": "positions: x, y in the room's z-up frame (m); the network's own output is the region frame "
                  "of nlos predict",

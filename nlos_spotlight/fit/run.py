@@ -37,8 +37,9 @@ RESUMABLE_CHANGES = ("workers", "render_device")
 """Settings a resumed fit may change: the process count (the output is byte-identical) and the
 rendering device (the same numbers to float rounding)."""
 TRAINING_ONLY = ("capture_preset", "project_nuisance", "epochs", "min_steps", "workers", "render_device", "shadow_samples", "shadow_relay", "bounce",
-                 "clothing", "world_variation", "ceiling_people")
-"""Settings that leave the room and its rendered people as they are (``--people-from`` may differ in them)."""
+                 "clothing", "world_variation", "ceiling_people", "method")
+"""Settings that leave the room and its rendered people as they are (``--people-from`` may differ in them;
+also ``policy`` between fixed policies, whose spots every room stores: only the IEN adds spots)."""
 
 
 def dataset_config(cfg: FitConfig, room_dir: Path, extra_spots: list[int] | None = None):
@@ -184,7 +185,9 @@ def reuse_people(source: Path, out: Path, record: dict) -> None:
     except (OSError, json.JSONDecodeError, KeyError, TypeError):
         raise NlosError(f"--people-from: {source} is not a room model (no readable fit.json)") from None
     old, new = recorded(old), record["settings"]
-    diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k) and k not in TRAINING_ONLY)
+    fixed = "ien" not in (old.get("policy"), new.get("policy"))
+    diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k) and k not in TRAINING_ONLY
+                  and not (k == "policy" and fixed))
     if diff:
         raise NlosError(f"--people-from: {source} was fitted with other settings (differs in: {', '.join(diff)})")
     if not (source / "data" / "manifest.json").exists() or not (source / "room.json").exists():

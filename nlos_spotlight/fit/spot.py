@@ -95,7 +95,7 @@ def spot_policies(out: Path, cfg, split, chosen: int) -> dict:
     rows = {}
     for name in REPORTED_POLICIES:  # the oracle's rule on the SNR in hand, not a second SNR pass
         face = by_snr(snr, landed)[0] if name == "oracle" else policy_face(
-            dataclasses.replace(cfg, policy=name, checkpoint=""), split)
+            dataclasses.replace(cfg, policy=name, checkpoint="", method="ours"), split)
         rows[name] = {"face": face, "snr_over_best": float(snr[face] / best) if face >= 0 else 0.0}
     rows["chosen"] = {"face": int(chosen), "snr_over_best": float(snr[chosen] / best)}
     return {"best_snr": best, "policies": rows}

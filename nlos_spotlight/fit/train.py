@@ -24,7 +24,9 @@ def capture_overrides(out: Path | None, cfg: FitConfig) -> dict:
 def fit_train_config(cfg: FitConfig, out: Path | None = None) -> TrainConfig:
     """``seen_config`` for one room with the fit's capture (``capture_overrides``), its capture
     variation (projected out of the photographs unless 'ideal') and spot policy."""
-    tc = seen_config(1, seed=cfg.seed, noise=True, policy=cfg.policy)
+    from ..evaluate.methods import fit_method
+
+    tc = seen_config(1, seed=cfg.seed, noise=True, policy=cfg.policy, arch=fit_method(cfg.method).arch)
     drift = cfg.capture_preset != "ideal" and cfg.project_nuisance
     camera = cfg.clothing == "camera"  # redressed in real clothing's range; 'dataset': as rendered, no augmentation
     return dataclasses.replace(tc, name="room-model", sensor=capture_overrides(out, cfg), variation=cfg.capture_preset,

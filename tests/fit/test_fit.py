@@ -615,3 +615,27 @@ def test_bounce_is_stored_and_trained_on(fitted, room_dir, tmp_path):
     half = form_parts(s, i, y, albedo=s.albedo[i] * 0.5)[0] - form_parts(dataclasses.replace(s, bounce=None), i, y,
                                                                           albedo=s.albedo[i] * 0.5)[0]
     np.testing.assert_allclose(half[0].numpy(), 0.5 * s.bounce[k].numpy(), rtol=1e-4, atol=1e-9)
+
+
+def test_method_fits_a_baseline_on_the_same_people(fitted, room_dir, tmp_path):
+    """``--method chandran``: Adaptive Lighting's spot and Chandran's CNN fitted on the same rendered
+    people (``--people-from``: fixed policies' spots are stored for every person); its checkpoint is
+    that network, its report names it; a method that lights no spot, or a policy against the
+    method's, is refused in one line."""
+    from nlos_spotlight.errors import NlosError
+    from nlos_spotlight.evaluate.methods import BY_NAME
+    from nlos_spotlight.train.checkpoint import load_trained
+
+    src, _ = fitted
+    out = tmp_path / "chandran"
+    report = fit_room(str(room_dir), out, dataclasses.replace(TINY, method="chandran", policy="adaptive"), {},
+                      progress=False, people_from=src)
+    assert report["training"]["method"] == "chandran" and report["training"]["policy"] == "adaptive"
+    assert report["spot"]["face"] == report["spot_policies"]["policies"]["adaptive"]["face"]
+    models = load_trained(out)
+    assert models.config.arch == BY_NAME["chandran"].arch == "chandran" and models.config.policy == "adaptive"
+    assert "Chandran" in report["training"]["network"]
+    for bad in (dict(method="tancik"), dict(method="chandran", policy="oracle"),
+                dict(method="ours_task_only")):
+        with pytest.raises(NlosError, match="--method"):
+            dataclasses.replace(TINY, **bad)
