@@ -191,7 +191,8 @@ def fit_reproduction(room: Room, cache: Path) -> dict[str, np.ndarray]:
     out = {"fit_nlos": builder.rerender(room.indices[:REPRODUCED], base, room.aim, ("nlos",))["nlos"]}
     if cfg.shadow_samples > 0:  # the fit's own shadow, only its relay points drawn apart
         out["relay_shadow"] = builder.rerender(room.indices, dataclasses.replace(
-            base, shadow_samples=cfg.shadow_samples, relay_offset=RELAY_OFFSET), room.aim, ("nlos_shadow",))["nlos_shadow"]
+            base, shadow_samples=cfg.shadow_samples, relay_offset=RELAY_OFFSET), room.aim, ("nlos_shadow",),
+            one_footprint=True)["nlos_shadow"]
     if cfg.pixel_footprint > 0:
         out["offset_nlos"] = builder.rerender(room.indices, dataclasses.replace(base, footprint_seed=CAMERA_SEED),
                                               room.aim, ("nlos",))["nlos"]
@@ -233,7 +234,8 @@ def world_photographs(room: Room, cache: Path, effect: str, magnitude: float, dr
                         person_samples=dcfg.person_samples, shadow_samples=4096, footprint_seed=CAMERA_SEED,
                         relay_offset=RELAY_OFFSET, device="cpu")
     t0 = time.perf_counter()
-    got = builder.rerender(room.indices, rs, aim, ("nlos", "nlos_ambient", "nlos_shadow"), world=world)
+    got = builder.rerender(room.indices, rs, aim, ("nlos", "nlos_ambient", "nlos_shadow"), world=world,
+                           one_footprint=True)
     L = static_layers(world, aim)
     out = {"indices": np.asarray(room.indices), **got, **layers_arrays(L, "layer_"), "aim": aim,
            "drawn": np.array(json.dumps(drawn)), "seconds": np.float64(time.perf_counter() - t0)}
@@ -302,7 +304,7 @@ def _camera_draw(room: Room, cache: Path, draw: int, grid: bool = False) -> dict
                         shadow_samples=CAMERA_SHADOW_SAMPLES, footprint_seed=CAMERA_SEED + 100 * draw,
                         relay_offset=(0.5 + draw * PHI) % 1.0, device="cpu")
     t0 = time.perf_counter()
-    got = builder.rerender(room.indices, rs, room.aim, ("nlos", "nlos_ambient", "nlos_shadow"))
+    got = builder.rerender(room.indices, rs, room.aim, ("nlos", "nlos_ambient", "nlos_shadow"), one_footprint=True)
     out = {"indices": np.asarray(room.indices), **{f"cam_{k}": v for k, v in got.items()},
            "seconds": np.float64(time.perf_counter() - t0)}
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -335,7 +337,7 @@ def bounce_light(room: Room, cache: Path) -> dict[str, np.ndarray]:
                         spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
                         shadow_samples=BOUNCE_RELAY, footprint_seed=CAMERA_SEED, relay_offset=0.5, device="cpu")
     t0 = time.perf_counter()
-    got = builder.rerender(room.indices, rs, room.aim, ("nlos_bounce",))
+    got = builder.rerender(room.indices, rs, room.aim, ("nlos_bounce",), one_footprint=True)
     out = {"bounce_nlos": got["nlos_bounce"], "bounce_seconds": np.float64(time.perf_counter() - t0)}
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_npz(path, indices=np.asarray(room.indices), **out)

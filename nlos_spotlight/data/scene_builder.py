@@ -202,13 +202,16 @@ class SceneBuilder:
 
     def rerender(self, indices: list[int], settings: RenderSettings, aim: np.ndarray,
                  components: tuple[str, ...] = ("nlos", "nlos_ambient"),
-                 relay_offsets: list[float] | None = None, world=None) -> dict[str, np.ndarray]:
+                 relay_offsets: list[float] | None = None, world=None,
+                 one_footprint: bool = False) -> dict[str, np.ndarray]:
         """Samples ``indices`` of this room rendered again, lit by one spot aimed at ``aim`` (3,), with
         other ``settings`` or components (convergence and robustness studies): component name ->
         (len(indices), H, W, 3) float64. The people are the dataset's (the same seeded draws);
         ``relay_offsets``: each one's ``nlos_shadow`` relay offset (``settings.relay_offset`` if None);
         with ``settings.footprint_jitter`` each is rendered with its own footprint draw, its sampling
-        set (``config.sampling_set``: the draw the dataset renders it with, under that seed);
+        set (``config.sampling_set``: the draw the dataset renders it with, under that seed), or with
+        ``one_footprint`` all with the seed's one draw (test photographs: one static visibility for
+        the shadow's relay points instead of one per set);
         ``world``: a scene to render them in instead of the room (``world.mismatch``: the room as it
         differs from its scan), the same people at the same places."""
         room, specs = self._scan_people()
@@ -223,7 +226,7 @@ class SceneBuilder:
 
         for k, off in zip(indices, offsets):
             _, person, t = self._person(specs[k], scene.hidden_region.floor_z)
-            draw = sampling_set(k) if settings.footprint_jitter else None
+            draw = sampling_set(k) if settings.footprint_jitter and not one_footprint else None
             res = r.render(y, person, torch.as_tensor(t), components, relay_offset=off, footprint_draw=draw)
             for c in components:
                 out[c].append(res[c].double().cpu().numpy())
