@@ -23,7 +23,7 @@ SLOW = ("tests/fit/test_fit.py", "tests/train/test_train.py::test_two_process_to
         "tests/data/test_image_samples.py::test_demo_seen_room_trains_on_the_pool_and_scores_the_test_people",
         "tests/evaluate/test_synthesis.py::test_read_photograph_names_the_posture_and_place",
         "tests/models/test_inference.py::test_int8_stays_close", "tests/render/test_fused.py::test_fused_transport_equals_eager",
-        "tests/train/test_floor_net.py",  # a dataset generated and FloorNet trained
+        "tests/train/test_floor_net_training.py",  # a dataset generated and FloorNet trained
         "tests/render/test_bounce.py::test_bounce_loops_equal_the_torch_leg_and_scale_with_albedo")
 """Tests left out of ``make test-fast`` besides the Mitsuba cross-checks: end-to-end fits, processes
 killed and resumed, torchrun, training runs of tens of steps, end-to-end evaluation, int8
