@@ -582,7 +582,7 @@ def flag_rates(room: Room, multiples: list[float], per: int, seed: int = 0) -> l
     from nlos_spotlight.train.imaging import drifted_images, photographs
 
     net = room.models.net
-    if getattr(net, "nuisance", None) is None:
+    if getattr(net, "nuisance", None) is None or per < 1:  # no projection, or no check asked for
         return []
     L, t = room.test.layers, room.test
     burst = room.sensor.burst_frames
