@@ -67,18 +67,25 @@ def room_builder(out: Path, cfg: FitConfig):
     return SceneBuilder(dcfg, plan(dcfg)[0], out / "data"), dcfg
 
 
-def _part(dcfg, data: str, i: int, n: int, device: str = "cpu") -> None:
-    """One rendering process: its share of the image samples (after part 0 stored the spots).
-    It dies with the fit (Linux: the parent-death signal), and fails with one line, not a traceback."""
+def die_with_parent() -> None:
+    """This process ends when the fit that started it does (Linux: the parent-death signal; elsewhere
+    the callers notice a dead parent themselves)."""
     import signal
-    import sys
 
     try:
         import ctypes
 
         ctypes.CDLL("libc.so.6").prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):  # not Linux: the wait below still notices a dead parent
+    except (OSError, AttributeError):
         pass
+
+
+def _part(dcfg, data: str, i: int, n: int, device: str = "cpu") -> None:
+    """One rendering process: its share of the image samples (after part 0 stored the spots).
+    It dies with the fit (Linux: the parent-death signal), and fails with one line, not a traceback."""
+    import sys
+
+    die_with_parent()  # not Linux: the wait below still notices a dead parent
     from ..data.generate import generate, plan
 
     try:

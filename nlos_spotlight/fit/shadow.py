@@ -68,7 +68,13 @@ def _readable(path: Path, indices: list[int], comps: tuple[str, ...] = ("nlos_sh
 
 
 def _one_thread() -> None:
+    """A shadow worker: one torch thread, and it ends with the fit (a killed fit left its pool's
+    workers rendering, ownerless, before)."""
     import torch
+
+    from .run import die_with_parent
+
+    die_with_parent()
 
     torch.set_num_threads(1)
 
