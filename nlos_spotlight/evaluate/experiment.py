@@ -19,7 +19,7 @@ from ..errors import NlosError
 from ..train.checkpoint import load_trained
 from ..data.tensors import load_scene_tensors, split_ids
 from . import decimation as dec
-from .methods import BY_NAME, Method, select
+from .methods import BY_NAME, FLOOR_NET, Method, select
 from .metrics import per_class
 from .predictions import Predictions, evaluate_models, predict_scene
 from .runs import ensure_run, run_config, run_path, seeds_of
@@ -71,7 +71,7 @@ def run_all(run_dir: Path, data: Path, seeds: int, names: list[str] | None, prog
             console.print(f"[yellow]skip {m.name}: {ev.skipped[m.name]}[/yellow]")
             continue
         ev.preds[m.name] = {}
-        if m.arch == "floor-net":
+        if m.arch == FLOOR_NET:
             _floor_net(run_dir, base, ev, m, data, scenes, progress)
             continue
         for seed in ev.seeds:

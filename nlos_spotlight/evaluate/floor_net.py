@@ -17,9 +17,6 @@ from ..train.checkpoint import TrainedModels
 from ..train.floor_net import WEIGHTS, FloorNetTraining, load_floor_net, predict, room_arrays, train_run
 from .predictions import Predictions, illumination_for
 
-ARCH = "floor-net"
-"""``Method.arch`` of the methods this module runs."""
-
 
 def ensure_floor_net(run_dir: Path, base, seed: int, data: Path, progress: bool = False) -> Path:
     """The FloorNet run of ``seed`` under the evaluated run, trained if missing."""
@@ -49,4 +46,4 @@ def evaluate_floor_net(path: Path, ours: TrainedModels, scenes: list, ids: list[
     return out
 
 
-__all__ = ["ARCH", "ensure_floor_net", "evaluate_floor_net"]
+__all__ = ["ensure_floor_net", "evaluate_floor_net"]

@@ -91,6 +91,12 @@ class SpotShadow:
         self._group_cache: list | None = None  # ``_groups``: the renderer's sub-samples do not change
         self._spot_light: dict = {}  # spot vector -> the radiance it leaves on each h (``bounce.spot_radiance``)
 
+    def bounce(self, y: torch.Tensor, person: Person, t: torch.Tensor) -> torch.Tensor:
+        """(H, W, 3) ``nlos_bounce`` through these relay points (``render/bounce.py``)."""
+        from .bounce import bounce_image
+
+        return bounce_image(self, y, person, t)
+
     def image(self, y: torch.Tensor, person: Person, t: torch.Tensor) -> torch.Tensor:
         """(H, W, 3) ``nlos_shadow`` (negative) of spot vector ``y`` and the body moved by ``t``."""
         r, h = self.r, self.h

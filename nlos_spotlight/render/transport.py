@@ -266,9 +266,9 @@ class Renderer:
         if "ambient" in components:
             out.components["ambient"] = self.ambient_image
         if "nlos_shadow" in components:
-            out.components["nlos_shadow"] = self._shadow(y, person, translation, relay_offset)
+            out.components["nlos_shadow"] = self._relayed(y, person, translation, relay_offset, "image")
         if "nlos_bounce" in components:
-            out.components["nlos_bounce"] = self._shadow(y, person, translation, relay_offset, bounce=True)
+            out.components["nlos_bounce"] = self._relayed(y, person, translation, relay_offset, "bounce")
         want = [c for c in ("nlos", "nlos_ambient") if c in components]
         if want:
             per = self._person_terms(y, person, translation, want)
@@ -293,11 +293,12 @@ class Renderer:
         sup = torch.nonzero(y).flatten()
         return torch.einsum("ptc,t->pc", self.D[:, sup], y[sup]).reshape(*self.shape, 3)
 
-    def _shadow(self, y: torch.Tensor, person: Person | None, translation, offset: float | None,
-                bounce: bool = False) -> torch.Tensor:
-        """``nlos_shadow``: the spot light the body blocks on one static bounce (``render/shadow.py``),
-        relayed by the points of strata ``offset``; with ``bounce``, ``nlos_bounce``: the person's
-        light over one more static bounce through the same points (``render/bounce.py``)."""
+    def _relayed(self, y: torch.Tensor, person: Person | None, translation, offset: float | None,
+                 term: str) -> torch.Tensor:
+        """A term through the static relay points of strata ``offset`` (one ``SpotShadow`` a set,
+        kept): ``image``, ``nlos_shadow``, the spot light the body blocks (``render/shadow.py``), or
+        ``bounce``, ``nlos_bounce``, the person's light over one more static bounce
+        (``render/bounce.py``)."""
         if person is None:
             return torch.zeros(*self.shape, 3, device=self.device, dtype=self.dtype)
         from .shadow import SpotShadow
@@ -311,12 +312,7 @@ class Renderer:
                 cache.pop(next(iter(cache)))  # the oldest set
             cache[key] = SpotShadow(self, offset)
         t, batched = self._translations(translation)
-        if bounce:
-            from .bounce import bounce_image
-
-            imgs = [bounce_image(cache[key], y, person, tb) for tb in t]
-        else:
-            imgs = [cache[key].image(y, person, tb) for tb in t]
+        imgs = [getattr(cache[key], term)(y, person, tb) for tb in t]
         return torch.stack(imgs) if batched else imgs[0]
 
     def _active(self, y: torch.Tensor) -> torch.Tensor:
