@@ -600,7 +600,7 @@ def flag_rates(room: Room, multiples: list[float], per: int, seed: int = 0) -> l
             images, empty, free = drifted_images(t, idx, y, None, v, burst, gen, draws=(p, e))
             ph = photographs(images, empty, room.sensor, gen, True, True, metered=free)
             with torch.no_grad():
-                _, c, e_ = net.nuisance(ph.images - ph.background, ph.background, ph.clipped)
+                c, e_ = net.nuisance.drift(ph.images - ph.background, ph.background, ph.clipped)
             est.append(c.double().numpy())
             se.append(e_.double().numpy())
             truth.append(torch.stack([p.projector * p.exposure / (e.projector * e.exposure) - 1,

@@ -1,8 +1,9 @@
 """What changed between the empty-room burst and each capture, as ``nlos predict`` reports it.
 
 A room model trained under a capture variation (``nlos fit --capture-preset``) projects the
-variation's directions out of every photograph (``models.nuisance``); the projection's coefficients
-are the drift it estimated: projector and room light (relative, the exposure included), camera
+variation's directions out of every photograph (``models.nuisance``); a second fit of the same
+directions beside the training people's light (``NuisanceProjection.drift``) gives the drift it
+estimated: projector and room light (relative, the exposure included), camera
 shift (output pixels) and roll, the spot's pan and tilt. A capture is flagged when any of them
 exceeds :data:`TOLERANCE_SIGMAS` times what two captures differ by under the preset the model was
 trained on (``render.variation.difference_sigmas``): a 1-in-300 event there per direction, so
@@ -97,7 +98,7 @@ def estimate_drift(net, images: np.ndarray, background: np.ndarray, clipped: np.
             x = torch.as_tensor(np.ascontiguousarray(images[s:s + batch_size]), dtype=torch.float32, device=bg.device)
             c = None if clipped is None else torch.as_tensor(np.ascontiguousarray(clipped[s:s + batch_size]),
                                                             device=bg.device)
-            _, coef, se = proj(x - bg, bg.expand_as(x), c)
+            coef, se = proj.drift(x - bg, bg.expand_as(x), c)
             out.append(torch.stack([coef, se]).double().cpu().numpy())
     both = np.concatenate(out, axis=1)
     return Drift(both[0], np.asarray(tol, np.float64), both[1])

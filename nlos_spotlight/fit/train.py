@@ -5,6 +5,8 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+import torch
+
 from ..evaluate.seen import RoomSplit, SeenResult, run_seen, seen_config, split_room
 from ..train.config import TrainConfig
 from .config import FitConfig
@@ -73,7 +75,6 @@ def with_shadow(s, out: Path, cfg: FitConfig, spot: int):
     """The room's image samples ``s`` with their stored shadow term under ``spot``; under a world
     variation their whole light under ``spot`` is the one rendered in their drawn worlds
     (``fit/shadow.py``): one column of ``u`` / ``v`` holds it, the other spots none."""
-    import torch
 
     from ..errors import NlosError
     from .shadow import load_block_light
@@ -95,7 +96,6 @@ def with_shadow(s, out: Path, cfg: FitConfig, spot: int):
 def heldout_positions(s, cfg: FitConfig):
     """(heldout,) int64 positions among the image samples ``s`` of the held-out test people: the one
     rule (``room_split``'s test people, in order)."""
-    import torch
 
     from ..evaluate.seen import split_masks
 
@@ -139,4 +139,35 @@ def train_room(cfg: FitConfig, out: Path, progress: bool, split: RoomSplit | Non
         spots = json.loads((Path(out) / "data" / "config.json").read_text())["extra_spots"][:1]
     result = run_seen(tc, [room], cfg.people, Path(out) / "train", cfg.epochs, progress=progress,
                       min_steps=cfg.min_steps, keep_model=Path(out) / "final.pt", ien_state=ien_state, spots=spots)
+    if layers is not None and result.spots[0] is not None and result.spots[0] >= 0:
+        train = room.pool.subset(torch.arange(min(cfg.people, room.pool.num_samples)))
+        keep_person_light(Path(out) / "final.pt", train, int(result.spots[0]), layers)
     return result
+
+
+def keep_person_light(model: Path, people, spot: int, layers) -> bool:
+    """Give the room model ``model``'s drift fit the light directions of its training ``people``
+    under ``spot`` (``models.nuisance.person_light_basis``), unless it has them or projects no
+    nuisance; True when written. A room model fitted before them gains them on ``nlos fit --resume``."""
+    import os
+
+    from ..models.nuisance import person_light_basis
+    from ..train.checkpoint import read_checkpoint
+    from ..train.imaging import form_parts
+
+    st = read_checkpoint(model)
+    key = next((k for k in st.get("net", {}) if k.endswith("nuisance.fraction")), None)
+    if key is None or st["net"][key].numel() == 0:
+        return False
+    person = key[:-len("fraction")] + "person"
+    if st["net"].get(person, torch.zeros(0)).numel() > 0:
+        return False
+    y = torch.zeros(people.u.shape[1])
+    y[spot] = 1
+    lit, ambient, _ = form_parts(people, torch.arange(people.num_samples), y)
+    p, a = layers.nominal()
+    st["net"][person] = person_light_basis(lit + ambient, p + a)
+    tmp = model.with_name(f".{model.name}.tmp")
+    torch.save(st, tmp)
+    os.replace(tmp, model)
+    return True

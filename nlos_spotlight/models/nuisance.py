@@ -25,6 +25,13 @@ are the drift estimates (relative gains, pixels, radians), and the network reads
 exactly what survives it. It also removes the person's light along those seven directions (its
 overall brightness relative to the room, mostly): the price of a reading that survives drift.
 
+The drift that ``nlos predict`` reports (:meth:`NuisanceProjection.drift`) is a second fit of the
+same difference with the person's light as extra columns: ``B q_k`` for the mean and leading
+principal directions ``q`` of the training people's light over the room's rendered light
+(:func:`person_light_basis`). Without them the person's light leaks into the coefficients (in the
+copy room it shifts the room-light estimate by 0.23 of its tolerance, person to person), which
+the residual's standard error does not see; with them the estimates are what the room did.
+
 Shapes:
     diff (B, H, W, 3), background (B, H, W, 3), clipped (B, H, W) bool or None
     -> residual (B, H, W, 3), coefficients (B, 7) in the order of :data:`DIRECTIONS`, their
@@ -40,6 +47,10 @@ DIRECTIONS = ("projector", "ambient", "shift_x", "shift_y", "roll", "aim_pan", "
 """What each coefficient measures: relative gains, output pixels (x right, y down), radians."""
 NOISE_FLOOR = 0.01
 """The weights' floor, as a fraction of the mean background (dark pixels still have read noise)."""
+PERSON_DIRECTIONS = 8
+"""Person-light columns of the drift fit: the mean and 7 principal directions (99% of the training
+people's light in the copy room; 1 -> 8 columns take the drift flag's false alarms at 2x ``tripod``
+from 7.4% to 2.7%, 16 or 32 add nothing: ``benchmarks/robustness.py``'s flag check)."""
 
 
 def nuisance_basis(background: torch.Tensor, fraction: torch.Tensor, relative: torch.Tensor) -> torch.Tensor:
@@ -81,6 +92,18 @@ def project_out(diff: torch.Tensor, basis: torch.Tensor, weights: torch.Tensor
     return resid.reshape(diff.shape).to(diff.dtype), (cn / norm).to(diff.dtype), se.to(diff.dtype)
 
 
+def person_light_basis(light: torch.Tensor, total: torch.Tensor, k: int = PERSON_DIRECTIONS) -> torch.Tensor:
+    """(k, H, W, 3): the mean and the k - 1 leading principal directions of the people's light
+    ``light`` (N, H, W, 3) over the room's rendered light ``total`` (H, W, 3), each of unit norm (the
+    drift fit scales its columns anyway)."""
+    rel = (light.double() / total.double().clamp(min=1e-30)).reshape(len(light), -1)
+    mean = rel.mean(0)
+    k = max(1, min(k, len(light)))
+    vh = torch.linalg.svd(rel - mean, full_matrices=False)[2][:k - 1] if k > 1 else rel[:0]
+    q = torch.cat([(mean / mean.norm().clamp(min=1e-300))[None], vh])
+    return q.reshape(len(q), *total.shape).float()
+
+
 def project_out_reference(diff, basis, weights):
     """Slow, obviously correct twin of :func:`project_out`: numpy's lstsq on sqrt(W)-scaled rows,
     one image at a time (no ridge)."""
@@ -100,14 +123,18 @@ class NuisanceProjection(nn.Module):
 
     Buffers: ``fraction`` (H, W, 3) the projector's share of each pixel's light, ``relative``
     (5, H, W, 3) the relative derivatives of the light in the camera's shift (x, y, per output
-    pixel), roll and the spot's pan and tilt (per radian). They take their shapes from
-    :meth:`set_prior` or from a checkpoint (``_load_from_state_dict``).
+    pixel), roll and the spot's pan and tilt (per radian), ``person`` (K, H, W, 3) the training
+    people's light directions of the drift fit (:func:`person_light_basis`; empty: none, as in room
+    models fitted before it). They take their shapes from :meth:`set_prior` / :meth:`set_person`
+    or from a checkpoint (``_load_from_state_dict``).
     """
+
+    BUFFERS = ("fraction", "relative", "person")
 
     def __init__(self):
         super().__init__()
-        self.register_buffer("fraction", torch.zeros(0))
-        self.register_buffer("relative", torch.zeros(0))
+        for name in self.BUFFERS:
+            self.register_buffer(name, torch.zeros(0))
 
     def reset_parameters(self) -> None:  # no parameters: the prior comes from the room
         pass
@@ -119,8 +146,18 @@ class NuisanceProjection(nn.Module):
         self.fraction = fraction.detach().to(self.fraction.device, torch.float32).clone()
         self.relative = relative.detach().to(self.fraction.device, torch.float32).clone()
 
+    def set_person(self, basis: torch.Tensor) -> None:
+        """The drift fit's person-light directions (K, H, W, 3), on the prior's grid."""
+        if not self.ready or basis.dim() != 4 or tuple(basis.shape[1:]) != tuple(self.fraction.shape):
+            raise ValueError(f"nuisance projection: person directions {tuple(basis.shape)} do not match the room "
+                             f"prior {tuple(self.fraction.shape)}")
+        self.person = basis.detach().to(self.fraction.device, torch.float32).clone()
+
     def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
-        for name in ("fraction", "relative"):
+        # room models fitted before the drift fit had person directions: none (BatchNorm fills its
+        # missing counter the same way)
+        state_dict.setdefault(prefix + "person", torch.zeros(0))
+        for name in self.BUFFERS:
             if prefix + name in state_dict:  # take the stored shape before the copy
                 setattr(self, name, torch.empty_like(state_dict[prefix + name], device=getattr(self, name).device))
         super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
@@ -129,16 +166,33 @@ class NuisanceProjection(nn.Module):
     def ready(self) -> bool:
         return self.fraction.numel() > 0
 
-    def forward(self, diff: torch.Tensor, background: torch.Tensor,
-                clipped: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    def _check(self, diff: torch.Tensor) -> None:
         if not self.ready:
             raise ValueError("nuisance projection: no room prior (set_prior) in this network")
         if tuple(self.fraction.shape) != tuple(diff.shape[1:]):
             raise ValueError(f"nuisance projection: the room prior is {tuple(self.fraction.shape)}, the photographs "
                              f"{tuple(diff.shape[1:])}")
+
+    def forward(self, diff: torch.Tensor, background: torch.Tensor,
+                clipped: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        self._check(diff)
         background = background.expand_as(diff)
         basis = nuisance_basis(background, self.fraction.to(diff.dtype), self.relative.to(diff.dtype))
         return project_out(diff, basis, noise_weights(background, clipped))
+
+    def drift(self, diff: torch.Tensor, background: torch.Tensor,
+              clipped: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+        """The seven coefficients (B, 7) and their standard errors (B, 7) of a fit that also holds
+        the person's light directions (module docstring): what ``nlos predict`` reports."""
+        if self.person.numel() == 0:
+            return self.forward(diff, background, clipped)[1:]
+        self._check(diff)
+        background = background.expand_as(diff)
+        basis = nuisance_basis(background, self.fraction.to(diff.dtype), self.relative.to(diff.dtype))
+        extra = background.unsqueeze(1) * self.person.to(diff.dtype)
+        _, coef, se = project_out(diff, torch.cat([basis, extra], dim=1), noise_weights(background, clipped))
+        k = len(DIRECTIONS)
+        return coef[:, :k], se[:, :k]
 
 
 def room_prior(layers) -> tuple[torch.Tensor, torch.Tensor]:
@@ -150,5 +204,5 @@ def room_prior(layers) -> tuple[torch.Tensor, torch.Tensor]:
     return (p / total).clamp(0, 1), derivs / total
 
 
-__all__ = ["DIRECTIONS", "NuisanceProjection", "noise_weights", "nuisance_basis",
-           "project_out", "project_out_reference", "room_prior"]
+__all__ = ["DIRECTIONS", "NuisanceProjection", "PERSON_DIRECTIONS", "noise_weights", "nuisance_basis",
+           "person_light_basis", "project_out", "project_out_reference", "room_prior"]

@@ -172,6 +172,47 @@ def test_predict_reports_the_drift(fitted, tmp_path, capsys):
     assert "drift_projector" in (tmp_path / "p.csv").read_text().splitlines()[0]
 
 
+def test_the_drift_fit_holds_the_training_peoples_light(fitted, room_dir, tmp_path):
+    """The room model's drift fit holds its training people's light directions: the first is their
+    mean light over the room's (the held-out people left out), and a room model fitted before the
+    directions existed gains them on --resume, the network unchanged."""
+    import shutil
+
+    import torch
+
+    from nlos_spotlight.fit.train import keep_person_light, room_layers, room_split
+    from nlos_spotlight.models.nuisance import PERSON_DIRECTIONS
+    from nlos_spotlight.train.checkpoint import load_trained, read_checkpoint
+    from nlos_spotlight.train.imaging import form_parts
+
+    out, report = fitted
+    nui = load_trained(out).net.nuisance
+    assert nui.person.shape == (PERSON_DIRECTIONS, *nui.fraction.shape)
+    spot = int(report["spot"]["face"])
+    split = room_split(out, TINY, ["normals"], shadow_spot=spot)
+    total = sum(room_layers(out, report["spot"]["aim"]).nominal())
+    y = torch.zeros(split.pool.u.shape[1])
+    y[spot] = 1
+
+    def mean_direction(s):
+        lit, amb, _ = form_parts(s, torch.arange(s.num_samples), y)
+        m = ((lit + amb).double() / total.double()).mean(0)
+        return (m / m.norm()).float()
+
+    assert torch.allclose(nui.person[0], mean_direction(split.pool), atol=1e-6)
+    assert not torch.allclose(nui.person[0], mean_direction(split.test), atol=1e-4)
+    old = tmp_path / "old"
+    shutil.copytree(out, old)
+    st = read_checkpoint(old / "final.pt")
+    del st["net"]["nuisance.person"]
+    torch.save(st, old / "final.pt")
+    assert load_trained(old).net.nuisance.person.numel() == 0
+    fit_room(str(room_dir), old, TINY, {}, resume=True, progress=False)
+    again = load_trained(old).net
+    assert torch.equal(again.nuisance.person, nui.person)
+    assert not keep_person_light(old / "final.pt", split.pool, spot, None)  # once only
+
+
 def test_people_from_another_fit(fitted, room_dir, tmp_path):
     """--people-from trains on another room model's rendered people (hard links, nothing rendered
     again) under another capture preset; a fit with other people settings is refused, leaving nothing."""

@@ -8,8 +8,8 @@ import math
 import pytest
 import torch
 
-from nlos_spotlight.models.nuisance import (NuisanceProjection, noise_weights, nuisance_basis, project_out,
-                                            project_out_reference, room_prior)
+from nlos_spotlight.models.nuisance import (NuisanceProjection, noise_weights, nuisance_basis,
+                                            person_light_basis, project_out, project_out_reference, room_prior)
 from nlos_spotlight.render.variation import StaticLayers, draw_captures, preset
 
 F, H, W = 8, 16, 16
@@ -118,3 +118,73 @@ def test_standard_errors_are_calibrated():
     z = (got - c) / se
     assert torch.allclose(z.std(0), torch.ones(7, dtype=torch.float64), atol=0.1)
     assert float(z.mean(0).abs().max()) < 0.2
+
+
+def people_light(L: StaticLayers, n: int, seed: int) -> torch.Tensor:
+    """(n, H, W, 3) people-like light: two smooth blobs (a place the room lights, the body's own
+    pattern), in random amounts, over the room's light; its mean lies partly along the ambient."""
+    g = torch.Generator().manual_seed(seed)
+    yy, xx = torch.meshgrid(torch.arange(H, dtype=torch.float64), torch.arange(W, dtype=torch.float64), indexing="ij")
+    a = torch.exp(-((xx - 4) ** 2 + (yy - 11) ** 2) / 8)[..., None].expand(H, W, 3)
+    b = (torch.exp(-((xx - 12) ** 2 + (yy - 3) ** 2) / 4) * torch.sin(xx))[..., None].expand(H, W, 3)
+    amount = 1 + 0.5 * torch.rand(n, 2, generator=g, dtype=torch.float64)
+    total = sum(L.nominal())
+    return 1e-3 * total * (amount[:, 0, None, None, None] * a + 0.3 * amount[:, 1, None, None, None] * b)
+
+
+def test_person_directions_span_the_people_light():
+    """Light made of two patterns in varying amounts: the mean and one principal direction span
+    it (what is left of any person's light over the room's is zero to float precision), and the
+    first column is the normalized mean."""
+    L = smooth_room(7)
+    total = sum(L.nominal())
+    light = people_light(L, 50, 8)
+    q = person_light_basis(light, total, 2).double()
+    rel = (light / total).reshape(50, -1)
+    assert torch.allclose(q[0].reshape(-1), rel.mean(0) / rel.mean(0).norm(), atol=1e-6)
+    qq = torch.linalg.qr(q.reshape(2, -1).T)[0]
+    left = rel - (rel @ qq) @ qq.T
+    assert float(left.norm() / rel.norm()) < 1e-6
+    assert person_light_basis(light[:1], total, 8).shape == (1, H, W, 3)  # one person: the mean only
+
+
+def test_drift_fit_reads_the_room_not_the_person():
+    """A difference made of known drift coefficients plus a person's light with a part along the
+    room light: the network's projection takes the person for drift (a bias), the drift fit with
+    the people's directions reads the coefficients that were drawn (noise-free: to the ridge)."""
+    L = smooth_room(9)
+    proj = NuisanceProjection()
+    proj.set_prior(*[t.float() for t in prior(L)])
+    total = sum(L.nominal())
+    n = 6
+    b = total[None].expand(n, -1, -1, -1)
+    m = nuisance_basis(b, *prior(L))
+    c = 1e-4 * torch.randn(n, 7, generator=torch.Generator().manual_seed(10), dtype=torch.float64)
+    person = people_light(L, n, 11)
+    diff = torch.einsum("bk,bkhwc->bhwc", c, m) + person
+    biased = proj(diff.float(), b.float())[1].double()
+    assert float((biased - c).abs().max() / c.abs().max()) > 0.2  # the person's light read as drift
+    proj.set_person(person_light_basis(people_light(L, 40, 12), total, 2))
+    got, se = proj.drift(diff.float(), b.float())
+    assert torch.allclose(got.double(), c, atol=1e-4 * float(c.abs().max()))
+    assert se.shape == (n, 7)
+
+
+def test_room_models_without_person_directions_still_load():
+    """A state dict from before the drift fit's person directions loads with none, and then the
+    drift is the projection's own coefficients; with them it round-trips."""
+    L = smooth_room()
+    p = NuisanceProjection()
+    p.set_prior(*[t.float() for t in prior(L)])
+    old = {k: v for k, v in p.state_dict().items() if k != "person"}
+    q = NuisanceProjection()
+    q.load_state_dict(old)
+    d = 1e-3 * torch.randn(2, H, W, 3, generator=torch.Generator().manual_seed(13))
+    bg = sum(L.nominal()).float()[None].expand(2, -1, -1, -1)
+    assert q.person.numel() == 0 and torch.equal(q.drift(d, bg)[0], q(d, bg)[1])
+    p.set_person(person_light_basis(people_light(L, 10, 14), sum(L.nominal()), 3))
+    r = NuisanceProjection()
+    r.load_state_dict(p.state_dict())
+    assert torch.equal(r.person, p.person)
+    with pytest.raises(ValueError, match="person directions"):
+        r.set_person(torch.zeros(2, 4, 4, 3))
