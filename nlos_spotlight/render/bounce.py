@@ -30,7 +30,6 @@ from typing import TYPE_CHECKING
 
 import torch
 
-from .brdf import brdf
 from .kernels import pair_geometry
 
 if TYPE_CHECKING:
@@ -48,20 +47,14 @@ def spot_radiance(sh: "SpotShadow", y: torch.Tensor) -> torch.Tensor:
     cache = sh._spot_light
     if key in cache:
         return cache[key]
-    idx = r._active(y)
-    src = {k: v[idx] for k, v in r.spot_pts.items()}
-    w = r.spot_flux[idx] * y[r.spot_owner[idx]].unsqueeze(-1)
-    to_proj = r.spot_to_proj[idx]
-    lit = (src["normal"] * to_proj).sum(-1, keepdim=True)
+    src, lit = sh.spot_sources(y)
     out = torch.zeros(2, len(h["pos"]), 3, device=r.device, dtype=r.dtype)
     for a in range(0, len(h["pos"]), H_CHUNK):
         sl = slice(a, a + H_CHUNK)
         geo = pair_geometry(src["pos"], src["normal"], h["pos"][sl], h["normal"][sl])
         need = geo.cos_a * lit > 0
         vs = r._visible(r.rays, src["pos"], src["normal"], h["pos"][sl], h["normal"][sl], need, geo)
-        f = brdf(src["normal"].unsqueeze(1), to_proj.unsqueeze(1), geo.dir_ab, src["kd"].unsqueeze(1),
-                 src["ks"].unsqueeze(1), src["alpha"].unsqueeze(1))
-        c = f * (geo.g * vs).unsqueeze(-1) * w.unsqueeze(1)  # (S, h, 3) irradiance parts
+        c = sh.first_leg(src, geo.dir_ab, geo.g * vs)  # (S, h, 3) irradiance parts
         front = (geo.cos_b > 0).to(r.dtype).unsqueeze(-1)  # h is two-sided: light leaves the side it came in
         out[0, sl] = (c * front).sum(0)
         out[1, sl] = (c * (1 - front)).sum(0)

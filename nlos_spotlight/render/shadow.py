@@ -97,6 +97,25 @@ class SpotShadow:
 
         return bounce_image(self, y, person, t)
 
+    def spot_sources(self, y: torch.Tensor) -> tuple[dict, torch.Tensor]:
+        """The spot's sample points lit by ``y`` (``pos``, ``normal``, material, ``to_proj`` and
+        ``flux``: (S, 3) their flux toward the scene under ``y``) and whether each faces the projector
+        (S, 1): the sources of every relayed term (the shadow's and the bounce's first leg)."""
+        r = self.r
+        idx = r._active(y)
+        src = {k: v[idx] for k, v in r.spot_pts.items()}
+        src["to_proj"] = r.spot_to_proj[idx]
+        src["flux"] = r.spot_flux[idx] * y[r.spot_owner[idx]].unsqueeze(-1)
+        return src, (src["normal"] * src["to_proj"]).sum(-1, keepdim=True)
+
+    @staticmethod
+    def first_leg(src: dict, dir_ab: torch.Tensor, gv: torch.Tensor) -> torch.Tensor:
+        """(S, K, 3) irradiance the spot's sources ``src`` send toward K points: BRDF x geometry x
+        visibility ``gv`` (S, K) x flux, along the unit directions ``dir_ab`` (S, K, 3)."""
+        f = brdf(src["normal"].unsqueeze(1), src["to_proj"].unsqueeze(1), dir_ab, src["kd"].unsqueeze(1),
+                 src["ks"].unsqueeze(1), src["alpha"].unsqueeze(1))
+        return f * gv.unsqueeze(-1) * src["flux"].unsqueeze(1)
+
     def image(self, y: torch.Tensor, person: Person, t: torch.Tensor) -> torch.Tensor:
         """(H, W, 3) ``nlos_shadow`` (negative) of spot vector ``y`` and the body moved by ``t``."""
         r, h = self.r, self.h
@@ -104,11 +123,7 @@ class SpotShadow:
         verts = person.mesh.vertices + t_np
         body = r.body_rays(verts, person.mesh.faces)
         lo, hi = r._t(verts.min(0) - 4 * EPS), r._t(verts.max(0) + 4 * EPS)
-        idx = r._active(y)
-        src = {k: v[idx] for k, v in r.spot_pts.items()}
-        w = r.spot_flux[idx] * y[r.spot_owner[idx]].unsqueeze(-1)
-        to_proj = r.spot_to_proj[idx]
-        lit = (src["normal"] * to_proj).sum(-1, keepdim=True)
+        src, lit = self.spot_sources(y)
         rec = r.recv_t
         cos_c = (rec.pts["normal"] * rec.to_cam).sum(-1, keepdim=True)
         groups = self._groups(rec)
@@ -129,9 +144,7 @@ class SpotShadow:
         # first leg: irradiance at the kept h, and its part the body blocks
         n1 = need1[:, keep]
         vs = r._visible(r.rays, src["pos"], src["normal"], hk["pos"], hk["normal"], n1)
-        f = brdf(src["normal"].unsqueeze(1), to_proj.unsqueeze(1), geo1.dir_ab[:, keep], src["kd"].unsqueeze(1),
-                 src["ks"].unsqueeze(1), src["alpha"].unsqueeze(1))
-        c = f * (geo1.g[:, keep] * vs).unsqueeze(-1) * w.unsqueeze(1)  # (S, K, 3)
+        c = self.first_leg(src, geo1.dir_ab[:, keep], geo1.g[:, keep] * vs)  # (S, K, 3)
         blocked1 = self._body_blocks(body, src["pos"], src["normal"], hk["pos"], hk["normal"],
                                      cross1[:, keep] & (vs > 0))
         rho = self.rho[keep]
