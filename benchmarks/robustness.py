@@ -32,8 +32,9 @@ draws for every condition:
   :func:`footprint_gain`): is the camera-photograph gap the fit's fixed footprint pattern?
   ``camera-f32`` (``--fine``): the camera photographs with the person's light at 32 x 32 (is
   16 x 16 converged?); ``bounce`` (``--bounce``): the camera photographs with the person's light
-  over one more static bounce as well (``nlos_bounce``, :func:`bounce_light`: a term the datasets
-  leave out); ``--noise-draws`` averages every row over sensor-noise draws;
+  over one more static bounce as well (``nlos_bounce``, :func:`bounce_light`), magnitude 1, and
+  with it scaled to every later bounce (magnitude ``--bounce-tail``, :data:`BOUNCE_TAIL`);
+  ``--noise-draws`` averages every row over sensor-noise draws;
 * ``mitsuba`` (``--mitsuba SPP``): with-minus-without photographs by Mitsuba 3's particle tracer
   at 6 bounces (:func:`mitsuba_people`);
 * ``capture-all``: every capture effect at 1x ``tripod`` together, on the fit's person light;
@@ -320,6 +321,10 @@ FINE_FOOTPRINT = 32
 
 BOUNCE_RELAY = 4096
 """Relay points of the ``bounce`` photographs' fifth bounce (``nlos_bounce``, ``render/bounce.py``)."""
+BOUNCE_TAIL = 1.9
+"""Everything past the fourth bounce (to depth 10) over ``nlos_bounce``: Mitsuba's particle tracer in
+the three reference scenes 1.81-1.99, their 4 x 4 blocks correlated 0.97-0.98 with it
+(``benchmarks/bounce_mitsuba.py --spp 32768 --res 16 --tail 10``, docs/results/bounce-mitsuba-tail.txt)."""
 
 
 def bounce_light(room: Room, cache: Path) -> dict[str, np.ndarray]:
@@ -508,7 +513,7 @@ def paired(name: str, reading: str, outcomes: dict) -> list[dict]:
     return out
 
 
-def conditions(room: Room, people: dict | None, magnitudes: list[float]):
+def conditions(room: Room, people: dict | None, magnitudes: list[float], bounce_tail: float = 1.0):
     """(condition, magnitude, test people, variation) for every row of one room model."""
     from nlos_spotlight.render.variation import CAPTURE_EFFECTS, preset
     from nlos_spotlight.train.imaging import form_parts
@@ -559,9 +564,10 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float]):
                                                               c["cam_nlos_ambient"]), ideal
     for name, a in CLOTHING.items():
         yield name, 1.0, cam(np.full_like(albedo, a)), ideal
-    if "bounce_nlos" in c:  # the camera photographs with the person's light over one more bounce
-        yield "bounce", 1.0, with_person_light(t, room.spot, c["cam_nlos"] + c["bounce_nlos"] + c["cam_nlos_shadow"],
-                                               c["cam_nlos_ambient"]), ideal
+    if "bounce_nlos" in c:  # the camera photographs with the person's light over one more bounce, and
+        for k in sorted({1.0, bounce_tail}):  # scaled to every later bounce as Mitsuba measures them
+            yield "bounce", k, with_person_light(t, room.spot, c["cam_nlos"] + k * c["bounce_nlos"] + c["cam_nlos_shadow"],
+                                                 c["cam_nlos_ambient"]), ideal
     yield "all", 1.0, cam(albedo), tripod.capture_effects
     if "mitsuba_presence" in c:  # the first people only: ours beside Mitsuba's on the same people
         n = len(c["mitsuba_presence"])
@@ -763,6 +769,8 @@ def main(argv=None) -> int:
                                                                  "photograph (its Monte Carlo noise over sqrt(draws))")
     ap.add_argument("--bounce", action="store_true", help="also the camera photographs with the person's light over "
                     "one more static bounce (nlos_bounce; about 5 s a person)")
+    ap.add_argument("--bounce-tail", type=float, default=BOUNCE_TAIL,
+                    help="also the bounce photographs with nlos_bounce times this (every later bounce); 1: not")
     ap.add_argument("--camera-grid", action="store_true", help="the camera photographs as before jittering: "
                     "16 x 16 sub-samples at their cells' centres (biased about 3.6%% in the copy room)")
     ap.add_argument("--fine", action="store_true", help="also the camera photographs with the person's light at "
@@ -847,7 +855,7 @@ def main(argv=None) -> int:
         worlds = world_conditions(room, Path(args.cache), world_mags, args.world_draws, effects) \
             if world_mags and not args.no_render else []
         outcomes = {}
-        for cond, mag, test, var in [*conditions(room, people, mags), *worlds]:
+        for cond, mag, test, var in [*conditions(room, people, mags, args.bounce_tail), *worlds]:
             r = score(room, test, var, args.seed, args.noise_draws)
             outcomes[(cond, mag)] = r
             rows.append({"room": name, "reading": reading, "condition": cond, "magnitude": mag,

@@ -182,8 +182,9 @@ class StepClock:
 def reuse_people(source: Path, out: Path, record: dict) -> None:
     """Start ``out`` from the room and rendered people of the room model ``source`` (same room, people
     and render settings; other :data:`TRAINING_ONLY` settings): its ``room/`` copied, its ``data/``
-    hard-linked where the file system allows (files are only ever replaced, never written in place,
-    so the two fits cannot change each other's). Nothing is written outside ``out``."""
+    and ``shadow/`` hard-linked where the file system allows (files are only ever replaced, never
+    written in place, so the two fits cannot change each other's; the shadow step keeps the blocks
+    only where their spot and settings are this fit's). Nothing is written outside ``out``."""
     import shutil
 
     source = Path(source)
@@ -209,6 +210,8 @@ def reuse_people(source: Path, out: Path, record: dict) -> None:
     out.mkdir(parents=True, exist_ok=True)
     shutil.copytree(source / "room", out / "room")
     shutil.copytree(source / "data", out / "data", copy_function=link)
+    if (source / "shadow").is_dir():
+        shutil.copytree(source / "shadow", out / "shadow", copy_function=link)
     shutil.copy2(source / "room.json", out / "room.json")
     _atomic_json(out / "fit.json", record)
 

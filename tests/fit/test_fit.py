@@ -228,6 +228,8 @@ def test_people_from_another_fit(fitted, room_dir, tmp_path):
     assert report["heldout"]["people"] == TINY.heldout
     a, b = sorted((src / "data").rglob("images/*.npz"))[0], sorted((out / "data").rglob("images/*.npz"))[0]
     assert a.stat().st_ino == b.stat().st_ino
+    a, b = sorted((src / "shadow").glob("block-*.npz")), sorted((out / "shadow").glob("block-*.npz"))
+    assert a and [p.stat().st_ino for p in a] == [p.stat().st_ino for p in b]  # same spot: nothing rendered again
     assert load_trained(out).net.nuisance is None and load_trained(src).net.nuisance is not None
     with pytest.raises(NlosError, match="differs in: people"):
         fit_room(str(room_dir), tmp_path / "other", dataclasses.replace(TINY, people=TINY.people + 1), {},
