@@ -73,6 +73,7 @@ import torch
 from nlos_spotlight.errors import NlosError
 from nlos_spotlight.fit.run import room_builder
 from nlos_spotlight.fit.shadow import PHI
+from nlos_spotlight.render.bounce import BOUNCE_TAIL
 from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.render.variation import WORLD_EFFECTS
 
@@ -321,10 +322,6 @@ FINE_FOOTPRINT = 32
 
 BOUNCE_RELAY = 4096
 """Relay points of the ``bounce`` photographs' fifth bounce (``nlos_bounce``, ``render/bounce.py``)."""
-BOUNCE_TAIL = 1.9
-"""Everything past the fourth bounce (to depth 10) over ``nlos_bounce``: Mitsuba's particle tracer in
-the three reference scenes 1.81-1.99, their 4 x 4 blocks correlated 0.97-0.98 with it
-(``benchmarks/bounce_mitsuba.py --spp 32768 --res 16 --tail 10``, docs/results/bounce-mitsuba-tail.txt)."""
 
 
 def bounce_light(room: Room, cache: Path) -> dict[str, np.ndarray]:

@@ -257,7 +257,7 @@ def cmd_fit(args: argparse.Namespace) -> None:
     if args.room is None:
         raise NlosError("fit: give the room (a scan or scene directory) or --config ROOM.yaml with a room")
     changes = {k: getattr(args, k) for k in ("people", "policy", "seed", "burst", "workers", "capture_preset",
-                                             "pixel_footprint", "shadow_samples", "shadow_relay", "clothing",
+                                             "pixel_footprint", "shadow_samples", "shadow_relay", "bounce_scale", "clothing",
                                              "world_variation", "ceiling_people", "render_device")
                if getattr(args, k) is not None}
     if args.footprint_sampling is not None:
@@ -523,6 +523,8 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--bounce", choices=("on", "off"), help="also each person's light over one more static bounce "
                    "(the room relaying the spot onto the body and the body's light to the camera), in every "
                    "training photograph (default off)")
+    f.add_argument("--bounce-scale", type=float, help="training multiplies the stored fifth bounce by this "
+                   "(default 1; 1.9: every later bounce, as Mitsuba measures them; needs --bounce on)")
     f.add_argument("--shadow-samples", type=int, help="static points relaying the spot light each body blocks "
                                                       "(default 4096); 0: the shadow term left out")
     f.add_argument("--shadow-relay", choices=("per-person", "fixed"), help="the shadow's relay points drawn "

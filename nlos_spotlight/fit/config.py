@@ -64,6 +64,9 @@ class FitConfig:
     the room relaying the spot onto the body and the body's light to the camera; 24% of the
     person's light in the copy room), rendered in the shadow step through its relay points and
     added to every training photograph."""
+    bounce_scale: float = 1.0
+    """What training multiplies the stored ``nlos_bounce`` by (with ``bounce``): 1 the fifth bounce
+    as rendered, :data:`render.bounce.BOUNCE_TAIL` (1.9) every later bounce as Mitsuba measures them."""
     shadow_relay: str = "per-person"
     """The shadow's relay points: 'per-person' (each person its own strata offset, one of
     ``fit.shadow.RELAY_SETS`` a block, so that their sampling error is noise, not a pattern the
@@ -114,6 +117,11 @@ class FitConfig:
         if self.bounce is not False and (self.bounce is not True or self.shadow_samples == 0):
             raise NlosError(f"--bounce: expected on or off, and on needs the shadow's relay points (shadow_samples > 0), "
                             f"got {self.bounce!r} with shadow_samples {self.shadow_samples}")
+        scale = self.bounce_scale
+        if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0 < scale <= 10 \
+                or (scale != 1 and not self.bounce):
+            raise NlosError(f"--bounce-scale: expected a number in (0, 10] with --bounce on, got {scale!r}"
+                            f"{'' if self.bounce else ' with --bounce off'}")
         if self.shadow_relay not in ("per-person", "fixed"):
             raise NlosError(f"--shadow-relay: expected 'per-person' or 'fixed', got {self.shadow_relay!r}")
         if self.clothing not in ("camera", "dataset"):
@@ -176,7 +184,7 @@ MAX_WORKERS = 256
 
 
 BEFORE = {"method": "ours", "capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "footprint_jitter": False, "shadow_samples": 0,
-          "clothing": "dataset", "bounce": False, "shadow_relay": "fixed", "world_variation": "ideal", "ceiling_people": 0}
+          "clothing": "dataset", "bounce": False, "bounce_scale": 1.0, "shadow_relay": "fixed", "world_variation": "ideal", "ceiling_people": 0}
 """What a room model fitted before each of these settings existed did (see their docstrings)."""
 
 

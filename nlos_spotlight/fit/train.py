@@ -85,6 +85,8 @@ def with_shadow(s, out: Path, cfg: FitConfig, spot: int):
         raise NlosError(f"{out}/shadow: {shadow.shape[0]} people's shadow for {s.num_samples} people; "
                         "rerun nlos fit with --resume")
     bounce = got.get("nlos_bounce")
+    if bounce is not None and cfg.bounce_scale != 1:  # the fifth bounce standing in for every later one
+        bounce = bounce * cfg.bounce_scale
     if "nlos" not in got:
         return dataclasses.replace(s, shadow=shadow, shadow_spot=int(spot), bounce=bounce)
     u = torch.zeros(s.num_samples, s.u.shape[1], 1, dtype=s.u.dtype)

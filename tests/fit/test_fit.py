@@ -308,6 +308,10 @@ def test_config_checks():
     with pytest.raises(Exception, match="2\\^63"):  # refused before anything renders
         FitConfig(seed=2**64)
     assert PRESETS["default"].samples == 24 + 3000 + 200
+    for bad in ({"bounce_scale": 0.0, "bounce": True}, {"bounce_scale": float("nan"), "bounce": True},
+                {"bounce_scale": 1.9}):  # the last: a scale without the bounce it scales
+        with pytest.raises(Exception, match="--bounce-scale"):
+            FitConfig(**bad)
 
 
 def test_deeply_nested_scene_is_one_line(tmp_path, capsys):
@@ -658,6 +662,9 @@ def test_bounce_is_stored_and_trained_on(fitted, room_dir, tmp_path):
     half = form_parts(s, i, y, albedo=s.albedo[i] * 0.5)[0] - form_parts(dataclasses.replace(s, bounce=None), i, y,
                                                                           albedo=s.albedo[i] * 0.5)[0]
     np.testing.assert_allclose(half[0].numpy(), 0.5 * s.bounce[k].numpy(), rtol=1e-4, atol=1e-9)
+    tail = with_shadow(load_split(out / "data", "train", [], samples="images")[0], out,
+                       dataclasses.replace(cfg, bounce_scale=1.9), report["spot"]["face"])
+    np.testing.assert_allclose(tail.bounce[k].numpy(), 1.9 * s.bounce[k].numpy(), rtol=1e-6)  # every later bounce
 
 
 def test_method_fits_a_baseline_on_the_same_people(fitted, room_dir, tmp_path):
