@@ -441,13 +441,13 @@ def footprint_pattern(fit_light: np.ndarray, camera_light: np.ndarray, offset_li
 
 def with_person_light(test, spot: int, nlos: np.ndarray, nlos_ambient: np.ndarray):
     """``test`` whose people's light under ``spot`` is ``nlos`` (N, H, W, 3) (one stored column, its
-    shadow term included or not as given: the stored one is dropped)."""
+    shadow term and later bounces included or not as given: the stored ones are dropped)."""
     n, t = test.num_samples, test.u.shape[1]
     u = torch.zeros(n, t, 1, dtype=test.u.dtype)
     u[:, spot, 0] = 1
     v = torch.as_tensor(nlos, dtype=test.v.dtype)[:, None]
     return dataclasses.replace(test, u=u, v=v, nlos_ambient=torch.as_tensor(nlos_ambient, dtype=test.nlos_ambient.dtype),
-                               shadow=None)
+                               shadow=None, bounce=None)
 
 
 def spot_vector(room: Room, test) -> torch.Tensor:
@@ -531,7 +531,7 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float], bounce_
                                       c["cam_nlos_ambient"] * ((1 - a) / (1 - albedo)))
     yield "pixel-integrated", 1.0, with_person_light(t, room.spot, c["cam_nlos"], c["cam_nlos_ambient"]), ideal
     yield "pixel-integrated-2x2", 1.0, with_person_light(t, room.spot, c["fine_nlos"], c["fine_nlos_ambient"]), ideal
-    scattered = dataclasses.replace(t, shadow=None)  # the fit's own light of the body, without its shadow
+    scattered = dataclasses.replace(t, shadow=None, bounce=None)  # the fit's own light of the body alone
     lit, amb, _ = form_parts(scattered, torch.arange(t.num_samples), spot_vector(room, t), "spot")
     if "offset_nlos" in c:  # the fit's own footprint and shadow, only the pixels' slot offsets drawn apart
         stored_shadow = t.shadow.double().numpy() if t.shadow is not None else 0.0
@@ -662,7 +662,7 @@ def reproduction_gap(room: Room, people: dict) -> float:
     from nlos_spotlight.train.imaging import form_parts
 
     n = len(people["fit_nlos"])
-    t = dataclasses.replace(room.test, shadow=None)
+    t = dataclasses.replace(room.test, shadow=None, bounce=None)
     lit, _, _ = form_parts(t, torch.arange(n), spot_vector(room, t), "spot")
     a = lit.double().numpy()
     return float(np.linalg.norm(a - people["fit_nlos"]) / np.linalg.norm(people["fit_nlos"]))
@@ -819,7 +819,7 @@ def main(argv=None) -> int:
             from nlos_spotlight.train.imaging import form_parts
 
             rel = lambda a, b: float(np.linalg.norm(a - b) / np.linalg.norm(b))
-            t = dataclasses.replace(room.test, shadow=None)
+            t = dataclasses.replace(room.test, shadow=None, bounce=None)
             stored = form_parts(t, torch.arange(t.num_samples), spot_vector(room, t))[0].double().numpy()
             notes[f"{name}:{reading}"] = {**notes.get(f"{name}:{reading}", {}),
                 "reproduction_gap": reproduction_gap(room, people), "render_s": float(people["seconds"]),
