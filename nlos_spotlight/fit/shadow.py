@@ -147,15 +147,18 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
 
     from ..console import QUIET, console
     from ..data.store import atomic_json, remove_stale_temporaries
+    from ..render.bounce import NEAR_FIELD
 
     out, d = Path(out), shadow_dir(out)
     meta = {"face": int(spot["face"]), "aim": [float(a) for a in spot["aim"]], "shadow_samples": cfg.shadow_samples,
             "pixel_footprint": cfg.pixel_footprint, "footprint_jitter": cfg.footprint_jitter, "bounce": cfg.bounce,
             "shadow_relay": cfg.shadow_relay,
-            "world_variation": cfg.world_variation}
+            "world_variation": cfg.world_variation, **({"bounce_near_field": NEAR_FIELD} if cfg.bounce else {})}
     stored = {"shadow_relay": "fixed", "world_variation": "ideal", "footprint_jitter": False, "bounce": False,
               **json.loads((d / "meta.json").read_text())} \
         if (d / "meta.json").exists() else meta
+    if stored.get("bounce") and "bounce_near_field" not in stored:  # rendered before the bounce's distance floor
+        stored["bounce_near_field"] = 0.0
     if stored != meta:
         for p in d.glob("block-*.npz"):  # another spot or setting: nothing to keep
             p.unlink()

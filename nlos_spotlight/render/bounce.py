@@ -36,12 +36,22 @@ if TYPE_CHECKING:
     from .shadow import SpotShadow
 
 H_CHUNK = 1024
+NEAR_FIELD = 1.0
+"""The relayed legs' distance floor in relay spacings (sqrt of the static area per relay point):
+a relay point nearer a body or camera point than this lights it as if this far (instant radiosity's
+clamp, Keller 1997). Unbounded, relay points next to a camera point lit single pixels 10 to 10,000
+times the person's light there (5 of 100 people in the copy room)."""
 BOUNCE_TAIL = 1.9
 """Everything past the fourth bounce (to depth 10) over ``nlos_bounce``, by Mitsuba 3's particle
 tracer in the three reference scenes: 1.81-1.99, its 4 x 4 blocks correlated 0.97-0.98 with
 ``nlos_bounce`` (``benchmarks/bounce_mitsuba.py --spp 32768 --res 16 --tail 10``,
 docs/results/bounce-mitsuba-tail.txt). ``nlos_bounce`` times this stands in for all later bounces."""
 """Relay points per block of the body <-> h pairs (bounds memory: N x 1024 pairs a block)."""
+
+
+def near_r2(sh: "SpotShadow") -> float:
+    """The squared distance floor of the relayed legs (:data:`NEAR_FIELD` relay spacings)."""
+    return NEAR_FIELD ** 2 * float(sh.area.mean())
 
 
 def spot_radiance(sh: "SpotShadow", y: torch.Tensor) -> torch.Tensor:
@@ -56,7 +66,7 @@ def spot_radiance(sh: "SpotShadow", y: torch.Tensor) -> torch.Tensor:
     out = torch.zeros(2, len(h["pos"]), 3, device=r.device, dtype=r.dtype)
     for a in range(0, len(h["pos"]), H_CHUNK):
         sl = slice(a, a + H_CHUNK)
-        geo = pair_geometry(src["pos"], src["normal"], h["pos"][sl], h["normal"][sl])
+        geo = pair_geometry(src["pos"], src["normal"], h["pos"][sl], h["normal"][sl], near_r2(sh))
         need = geo.cos_a * lit > 0
         vs = r._visible(r.rays, src["pos"], src["normal"], h["pos"][sl], h["normal"][sl], need, geo)
         c = sh.first_leg(src, geo.dir_ab, geo.g * vs)  # (S, h, 3) irradiance parts
@@ -80,7 +90,7 @@ def body_relay(sh: "SpotShadow", rays, o: torch.Tensor, normal: torch.Tensor, l_
     out = torch.zeros(2, len(h["pos"]), 3, device=r.device, dtype=r.dtype)
     for a in range(0, len(h["pos"]), H_CHUNK):
         sl = slice(a, a + H_CHUNK)
-        geo = pair_geometry(o, normal, h["pos"][sl], h["normal"][sl])
+        geo = pair_geometry(o, normal, h["pos"][sl], h["normal"][sl], near_r2(sh))
         need = ((geo.cos_a > 0) if closed else (geo.cos_a != 0)) & (geo.cos_b != 0)
         w = geo.g * r._visible(rays, o, normal, h["pos"][sl], h["normal"][sl], need, geo)  # (N, h)
         o_front = (geo.cos_a > 0).to(r.dtype)  # h lies before the body sample's front
@@ -116,7 +126,7 @@ def relayed_to_camera(sh: "SpotShadow", body, l_relay: torch.Tensor) -> torch.Te
             leg = sh._second_leg_loops if vis is not None and r.device.type == "cpu" \
                 and not rec.glossy[b].any() else sh._second_leg
             out[b] = leg(body, rec, b, cos_c[b], hg, sh.area[hs], l_relay[:, hs], zero[:, hs], cross,
-                         None if vis is None else vis[a:a + r.settings.chunk])
+                         None if vis is None else vis[a:a + r.settings.chunk], near_r2(sh))
     return r._pixels(rec.scale(out), rec)
 
 
@@ -137,4 +147,4 @@ def bounce_image(sh: "SpotShadow", y: torch.Tensor, person, t: torch.Tensor) -> 
         return r._gather(person, pts, o, rays, ef, eb) + relayed_to_camera(sh, body, l_out)
 
 
-__all__ = ["bounce_image", "body_relay", "relayed_to_camera", "spot_radiance"]
+__all__ = ["BOUNCE_TAIL", "NEAR_FIELD", "bounce_image", "body_relay", "near_r2", "relayed_to_camera", "spot_radiance"]

@@ -32,14 +32,16 @@ class PairGeometry:
         return self.cos_a.abs() * self.cos_b.abs() * self.inv_r2
 
 
-def pair_geometry(pa: torch.Tensor, na: torch.Tensor, pb: torch.Tensor, nb: torch.Tensor) -> PairGeometry:
-    """Pair geometry for positions/normals pa, na (Na, 3) and pb, nb (Nb, 3)."""
+def pair_geometry(pa: torch.Tensor, na: torch.Tensor, pb: torch.Tensor, nb: torch.Tensor,
+                  r2_min: float = 0.0) -> PairGeometry:
+    """Pair geometry for positions/normals pa, na (Na, 3) and pb, nb (Nb, 3); ``r2_min`` floors the
+    squared distance of ``inv_r2`` (a bounded geometry term: instant radiosity's clamp)."""
     d = pb.unsqueeze(0) - pa.unsqueeze(1)
     r2 = (d * d).sum(-1)
     dn = d / r2.sqrt().unsqueeze(-1)
     cos_a = (dn * na.unsqueeze(1)).sum(-1)
     cos_b = -(dn * nb.unsqueeze(0)).sum(-1)
-    return PairGeometry(dn, cos_a, cos_b, 1.0 / r2)
+    return PairGeometry(dn, cos_a, cos_b, 1.0 / (r2.clamp(min=r2_min) if r2_min > 0 else r2))
 
 
 def form_factor(pa, na, area_a, pb, nb, area_b, visible=None) -> torch.Tensor:

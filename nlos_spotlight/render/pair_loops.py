@@ -265,13 +265,14 @@ def segments_cross_box(a, b, lo, hi):
 
 
 @njit(cache=True)
-def shadow_leg(rp, rn, kd, cos_c, hp, hn, area, l_blk, l_rest, blk_any, cross, vs):
+def shadow_leg(rp, rn, kd, cos_c, hp, hn, area, l_blk, l_rest, blk_any, cross, vs, r2_min):
     """The diffuse second leg of ``render.shadow.SpotShadow._second_leg`` in one pass over the pairs
     (camera point p, relay point h): returns the radiance (P, 3) of the light blocked on the first
     leg, and the body rays of the pairs whose segment crosses the body's box (float32 origins,
     directions, lengths as ``rays.pair_rays``) with each one's camera point and its radiance if the
     body blocks it (M, 3): the caller adds those the body blocks. ``cross`` (P, K) the box test,
-    ``vs`` (P, K) the static visibility, ``blk_any`` (K,) h with light blocked on the first leg."""
+    ``vs`` (P, K) the static visibility, ``blk_any`` (K,) h with light blocked on the first leg,
+    ``r2_min`` the squared distance's floor (``kernels.pair_geometry``)."""
     n_p, n_h = rp.shape[0], hp.shape[0]
     rad = np.zeros((n_p, 3))
     m = 0
@@ -293,7 +294,7 @@ def shadow_leg(rp, rn, kd, cos_c, hp, hn, area, l_blk, l_rest, blk_any, cross, v
             dx, dy, dz, r2, cos_a, cos_b = _pair(rp, rn, hp, hn, a, b)
             if cos_a * cos_c[a] <= 0:
                 continue
-            w = abs(cos_a) * abs(cos_b) / r2 * vs[a, b] * area[b]
+            w = abs(cos_a) * abs(cos_b) / max(r2, r2_min) * vs[a, b] * area[b]
             side = 0 if cos_b > 0 else 1  # the side of h that faces p
             for ch in range(3):
                 rad[a, ch] += c[ch] * w * l_blk[side, b, ch]

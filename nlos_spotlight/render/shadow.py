@@ -210,7 +210,8 @@ class SpotShadow:
     def _chunks(self, rows: torch.Tensor):
         return torch.split(rows, self.r.settings.chunk)
 
-    def _second_leg_loops(self, body, rec, sl, cos_c, hk, ak, l_blk, l_rest, cross, vs_static) -> torch.Tensor:
+    def _second_leg_loops(self, body, rec, sl, cos_c, hk, ak, l_blk, l_rest, cross, vs_static,
+                          r2_min: float = 0.0) -> torch.Tensor:
         """:meth:`_second_leg` for diffuse camera points with the static visibility cached, as one
         compiled pass (``pair_loops.shadow_leg``) and the body rays of the crossing pairs only."""
         from .pair_loops import shadow_leg
@@ -218,19 +219,21 @@ class SpotShadow:
         rad, org, dirs, length, row, lost = shadow_leg(
             _f64(rec.pts["pos"][sl]), _f64(rec.pts["normal"][sl]), _f64(rec.pts["kd"][sl]), _f64(cos_c.reshape(-1)),
             _f64(hk["pos"]), _f64(hk["normal"]), _f64(ak), _f64(l_blk), _f64(l_rest), (l_blk.sum((0, 2)) > 0).numpy(),
-            cross.numpy(), _f64(vs_static))
+            cross.numpy(), _f64(vs_static), float(r2_min))
         if len(row):
             hit = body.occluded_rays(org, dirs, length)
             np.add.at(rad, row[hit], lost[hit])
         return self.r._t(rad)
 
-    def _second_leg(self, body, rec, sl, cos_c, hk, ak, l_blk, l_rest, cross, vs_static) -> torch.Tensor:
+    def _second_leg(self, body, rec, sl, cos_c, hk, ak, l_blk, l_rest, cross, vs_static,
+                    r2_min: float = 0.0) -> torch.Tensor:
         """(P, 3) radiance toward the camera from camera points ``sl`` of the light the body stops;
         ``cross``: their segments to ``hk`` that cross the body's box; ``vs_static``: their static
-        visibility if cached (:meth:`_static_visibility`), else None."""
+        visibility if cached (:meth:`_static_visibility`), else None; ``r2_min``: the squared
+        distance's floor (``kernels.pair_geometry``)."""
         r = self.r
         rp, rn = rec.pts["pos"][sl], rec.pts["normal"][sl]
-        geo = pair_geometry(rp, rn, hk["pos"], hk["normal"])
+        geo = pair_geometry(rp, rn, hk["pos"], hk["normal"], r2_min)
         need = geo.cos_a * cos_c > 0
         # rays only where some light is lost: h with blocked light, or a leg through the body's box
         cross = need & cross

@@ -665,6 +665,13 @@ def test_bounce_is_stored_and_trained_on(fitted, room_dir, tmp_path):
     tail = with_shadow(load_split(out / "data", "train", [], samples="images")[0], out,
                        dataclasses.replace(cfg, bounce_scale=1.9), report["spot"]["face"])
     np.testing.assert_allclose(tail.bounce[k].numpy(), 1.9 * s.bounce[k].numpy(), rtol=1e-6)  # every later bounce
+    meta = json.loads((out / "shadow" / "meta.json").read_text())
+    assert meta["bounce_near_field"] == 1.0
+    del meta["bounce_near_field"]  # as a fit before the bounce's distance floor wrote it: rendered again
+    (out / "shadow" / "meta.json").write_text(json.dumps(meta))
+    stamps = {p: p.stat().st_mtime_ns for p in (out / "shadow").glob("block-*.npz")}
+    fit_room(str(room_dir), out, cfg, {}, resume=True, progress=False)
+    assert all(p.stat().st_mtime_ns != t for p, t in stamps.items())
 
 
 def test_method_fits_a_baseline_on_the_same_people(fitted, room_dir, tmp_path):

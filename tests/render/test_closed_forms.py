@@ -59,6 +59,22 @@ def test_form_factor_parallel_squares():
     assert f == pytest_approx(ff_parallel(1, 1, 1), 2e-3)
 
 
+def test_distance_floor_bounds_only_the_near_pairs():
+    """``pair_geometry(..., r2_min)``: 1 / max(r^2, r2_min), the directions and cosines unchanged."""
+    from nlos_spotlight.render.kernels import pair_geometry
+
+    pa = torch.tensor([[0.0, 0.0, 0.0]], dtype=torch.float64)
+    na = torch.tensor([[0.0, 0.0, 1.0]], dtype=torch.float64)
+    pb = torch.tensor([[0.0, 0.0, 0.01], [0.3, 0.0, 1.0], [0.0, 0.0, 2.0]], dtype=torch.float64)
+    nb = -na.expand(3, 3)
+    free, floor = pair_geometry(pa, na, pb, nb), pair_geometry(pa, na, pb, nb, 0.25)
+    r2 = (pb ** 2).sum(-1)
+    assert torch.allclose(free.inv_r2[0], 1 / r2)
+    assert torch.allclose(floor.inv_r2[0], 1 / r2.clamp(min=0.25))
+    assert torch.equal(floor.cos_a, free.cos_a) and torch.equal(floor.dir_ab, free.dir_ab)
+    assert float(floor.g[0, 2]) == float(free.g[0, 2])  # 2 m: beyond the floor, untouched
+
+
 def test_form_factor_perpendicular_squares():
     """Floor square to a perpendicular unit square lifted 0.25 m off the shared edge line.
 
