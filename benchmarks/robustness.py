@@ -331,7 +331,10 @@ def bounce_light(room: Room, cache: Path) -> dict[str, np.ndarray]:
     from nlos_spotlight.data.store import atomic_npz
     from nlos_spotlight.render.settings import RenderSettings
 
-    path = cache / room.name / f"bounce-{len(room.indices)}-f{CAMERA_FOOTPRINT}j-s{BOUNCE_RELAY}.npz"
+    from nlos_spotlight.render.bounce import NEAR_FIELD
+
+    near = f"-near{NEAR_FIELD:g}" if NEAR_FIELD else ""  # rendered before the distance floor: no suffix
+    path = cache / room.name / f"bounce-{len(room.indices)}-f{CAMERA_FOOTPRINT}j-s{BOUNCE_RELAY}{near}.npz"
     if (got := cached(path, room)) is not None:
         return {k: v for k, v in got.items() if k != "indices"}
     builder, dcfg = room_builder(room.path, fit_config(room.path))
