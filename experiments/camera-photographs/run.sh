@@ -27,3 +27,24 @@ $PY benchmarks/robustness.py --model livingroom:before=out/fits/livingroom-befor
 # a scan's geometry error: 2 mm per vertex and a 1 cm smooth warp (tripod)
 $PY benchmarks/robustness.py --model copyroom:relay=out/people-curve2/copyroom-3000 --world-magnitudes 1 \
     --world-effects geometry,warp --world-only --noise-draws 5 --cache out/robustness7 --out out/robustness7/copyroom-world.csv
+# session 8: the drift fit holds the people's light (added to the model by --resume), the bounce models,
+# the bounce's near field
+$PY -m nlos_spotlight.cli fit --config $ROOMS/copyroom.yaml --out out/people-curve2/copyroom-3000 --people 3000 \
+    --device cpu --resume --quiet
+$PY benchmarks/drift_directions.py --model out/people-curve2/copyroom-3000 --out docs/results/drift-directions.csv
+$PY benchmarks/robustness.py --model copyroom:relay=out/people-curve2/copyroom-3000 --no-render --noise-draws 1 \
+    --magnitudes 2 --out out/robustness8/copyroom-flags-only.csv
+$PY -m nlos_spotlight.cli fit --config $ROOMS/copyroom.yaml --out out/fits8/copyroom-bounce19 --people 3000 \
+    --people-from out/fits7/copyroom-bounce --bounce on --bounce-scale 1.9 --quiet
+$PY benchmarks/robustness.py --model copyroom:bounce=out/fits7/copyroom-bounce \
+    --model copyroom:bounce19=out/fits8/copyroom-bounce19 --camera-draws 4 --noise-draws 5 --bounce --flag-captures 0 \
+    --magnitudes 2 --cache out/robustness7 --out out/robustness8/copyroom-bounce-fixed.csv
+$PY benchmarks/bounce_mitsuba.py --spp 32768 --res 16 --tail 10 --out docs/results/bounce-mitsuba.txt
+$PY benchmarks/bounce_relay_spread.py --model out/people-curve2/copyroom-3000 --people 12 \
+    --out docs/results/bounce-relay-spread.txt
+# the bounce rendered again with the distance floor (its shadow step renders again), read on the floored photographs
+$PY -m nlos_spotlight.cli fit --config $ROOMS/copyroom.yaml --out out/fits8/copyroom-near --people 3000 \
+    --people-from out/fits7/copyroom-bounce --bounce on --quiet
+$PY benchmarks/robustness.py --model copyroom:near=out/fits8/copyroom-near \
+    --model copyroom:relay=out/people-curve2/copyroom-3000 --camera-draws 4 --noise-draws 5 --bounce --flag-captures 0 \
+    --magnitudes 2 --cache out/robustness7 --out out/robustness8/copyroom-near.csv

@@ -43,9 +43,10 @@ clamp, Keller 1997). Unbounded, relay points next to a camera point lit single p
 times the person's light there (5 of 100 people in the copy room)."""
 BOUNCE_TAIL = 1.9
 """Everything past the fourth bounce (to depth 10) over ``nlos_bounce``, by Mitsuba 3's particle
-tracer in the three reference scenes: 1.81-1.99, its 4 x 4 blocks correlated 0.97-0.98 with
-``nlos_bounce`` (``benchmarks/bounce_mitsuba.py --spp 32768 --res 16 --tail 10``,
-docs/results/bounce-mitsuba-tail.txt). ``nlos_bounce`` times this stands in for all later bounces."""
+tracer in the three reference scenes: 1.83-2.07, its 4 x 4 blocks correlated 0.98 with
+``nlos_bounce`` (1.81-1.99 before the distance floor; ``benchmarks/bounce_mitsuba.py --spp 32768
+--res 16 --tail 10``, docs/results/bounce-mitsuba.txt). ``nlos_bounce`` times this stands in for
+all later bounces."""
 """Relay points per block of the body <-> h pairs (bounds memory: N x 1024 pairs a block)."""
 
 
