@@ -38,7 +38,7 @@ def main() -> None:
     ap.add_argument("--spp", type=int, default=32768)
     ap.add_argument("--res", type=int, default=16)
     ap.add_argument("--scenes", default="diffuse_corner,furniture,posed_body")
-    ap.add_argument("--tail", type=int, default=6, help="deepest max_depth rendered (6: no tail columns)")
+    ap.add_argument("--tail", type=int, default=6, help="deepest max_depth rendered (6 or less: no tail columns)")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
     settings = RenderSettings(pixel_samples=2, transport_pixel_samples=2, spot_samples=128, person_samples=1024,
@@ -60,7 +60,7 @@ def main() -> None:
             ours = r.render(r.spot_vector(0), person, components=("nlos", "nlos_bounce"))
         n, b = ours["nlos"].numpy(), ours["nlos_bounce"].numpy()
         d = {k: mitsuba_nlos(sc, SPOT_TARGET, args.spp, seed=3, max_depth=k, protocol="scatter",
-                             integrator="ptracer") for k in (4, 5, 6, tail)}
+                             integrator="ptracer") for k in sorted({4, 5, 6, tail})}
         fifth, sixth, past = d[5] - d[4], d[6] - d[5], d[tail] - d[4]
         more = f"{past.sum() / b.sum():.3f}, {block_corr(b, past):.3f}, " if tail > 6 else ""
         lines.append(f"{name}, {fifth.sum() / d[4].sum():.3f}, {sixth.sum() / d[4].sum():.3f}, "

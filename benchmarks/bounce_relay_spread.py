@@ -28,7 +28,6 @@ def main() -> None:
     from nlos_spotlight.fit.config import FitConfig
     from nlos_spotlight.fit.run import room_builder
     from nlos_spotlight.fit.train import heldout_indices
-    from nlos_spotlight.render.settings import RenderSettings
 
     if not (args.model / "report.json").exists():
         sys.exit(f"--model: {args.model} is not a finished room model (no report.json)")
@@ -42,6 +41,21 @@ def main() -> None:
              "sums of the two draws, brightest pixel / median pixel, seconds"]
     print(lines[-1], flush=True)
     got = {}
+    try:
+        spreads(args, bounce, builder, dcfg, idx, aim, floor, got, lines)
+    finally:
+        bounce.NEAR_FIELD = floor
+    lines.append(f"# the floor keeps {got[floor].sum() / got[0.0].sum():.3f} of the light (first offset)")
+    print(lines[-1])
+    if args.out is not None:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text("\n".join(lines) + "\n")
+
+
+def spreads(args, bounce, builder, dcfg, idx, aim, floor, got, lines) -> None:
+    """Both draws without and with the floor; a line each."""
+    from nlos_spotlight.render.settings import RenderSettings
+
     for near in (0.0, floor):
         bounce.NEAR_FIELD = near
         draws, t0 = [], time.perf_counter()
@@ -55,14 +69,8 @@ def main() -> None:
         n = len(a)
         spread = np.linalg.norm((a - b).reshape(n, -1), axis=1) / np.linalg.norm(((a + b) / 2).reshape(n, -1), axis=1)
         lines.append(f"{near:g}, {np.median(spread):.3f}, {spread.max():.3f}, {a.sum():.4g}, {b.sum():.4g}, "
-                     f"{a.max() / np.median(np.abs(a)):.3g}, {time.perf_counter() - t0:.0f}")
+                     f"{a.max() / max(np.median(np.abs(a)), 1e-300):.3g}, {time.perf_counter() - t0:.0f}")
         print(lines[-1], flush=True)
-    bounce.NEAR_FIELD = floor
-    lines.append(f"# the floor keeps {got[floor].sum() / got[0.0].sum():.3f} of the light (first offset)")
-    print(lines[-1])
-    if args.out is not None:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text("\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":

@@ -5,7 +5,7 @@ Held-out people of a room model photographed under every capture effect at multi
 (as ``benchmarks/robustness.py``'s flag check draws them); per number K of person directions (0:
 the network's own projection), the seven drift directions' errors over their tolerance (mean and
 standard deviation) and the flag's hit rates (``apps.drift.Drift``). The directions come from the
-room model's training people (never its held-out ones).
+room model's training people, as ``nlos fit`` keeps them (``fit.train.keep_person_light``).
 
     python benchmarks/drift_directions.py --model out/people-curve2/copyroom-3000 --out docs/results/drift-directions.csv
 """
@@ -34,8 +34,7 @@ def main() -> None:
     import robustness as R
 
     from nlos_spotlight.apps.drift import Drift, tolerance
-    from nlos_spotlight.data.tensors import load_split
-    from nlos_spotlight.fit.train import heldout_positions, with_shadow
+    from nlos_spotlight.fit.train import room_split
     from nlos_spotlight.models.nuisance import DIRECTIONS, noise_weights, nuisance_basis, person_light_basis, project_out
     from nlos_spotlight.render.variation import draw_captures, preset
     from nlos_spotlight.train.imaging import drifted_images, form_parts, photographs
@@ -45,13 +44,9 @@ def main() -> None:
     room = R.load_room("room", "model", args.model, 100)
     net, L, t = room.models.net, room.test.layers, room.test
     cfg = R.fit_config(args.model)
-    s, = load_split(args.model / "data", "train", ["normals"], samples="images")
-    if cfg.shadow_samples > 0:
-        s = with_shadow(s, args.model, cfg, room.spot)
-    held = set(heldout_positions(s, cfg).tolist())
-    train = torch.tensor([i for i in range(s.num_samples) if i not in held][:cfg.people])
+    pool = room_split(args.model, cfg, ["normals"], room.spot if cfg.shadow_samples > 0 else None).pool
     y = R.spot_vector(room, t)
-    lit, amb, _ = form_parts(s, train, y)
+    lit, amb, _ = form_parts(pool, torch.arange(min(cfg.people, pool.num_samples)), y)  # as nlos fit keeps them
     p, a = L.nominal()
     total = p + a
     proj, burst = net.nuisance, room.sensor.burst_frames

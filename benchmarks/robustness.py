@@ -536,9 +536,12 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float], bounce_
     yield "pixel-integrated-2x2", 1.0, with_person_light(t, room.spot, c["fine_nlos"], c["fine_nlos_ambient"]), ideal
     scattered = dataclasses.replace(t, shadow=None, bounce=None)  # the fit's own light of the body alone
     lit, amb, _ = form_parts(scattered, torch.arange(t.num_samples), spot_vector(room, t), "spot")
+    own_bounce = t.bounce.double().numpy() if t.bounce is not None else 0.0  # a bounce model's own, in its rows
+    body = lit.double().numpy()  # the body's scattered light alone (the footprint gain's reference)
+    lit = lit.double() + torch.as_tensor(own_bounce, dtype=torch.float64)
     if "offset_nlos" in c:  # the fit's own footprint and shadow, only the pixels' slot offsets drawn apart
         stored_shadow = t.shadow.double().numpy() if t.shadow is not None else 0.0
-        yield "footprint-offsets", 1.0, with_person_light(t, room.spot, c["offset_nlos"] + stored_shadow,
+        yield "footprint-offsets", 1.0, with_person_light(t, room.spot, c["offset_nlos"] + stored_shadow + own_bounce,
                                                           amb.double().numpy()), ideal
     if "relay_shadow" in c:  # the fit's own light, the shadow's relay points drawn apart
         yield "relay-offsets", 1.0, with_person_light(t, room.spot, lit.double().numpy() + c["relay_shadow"],
@@ -559,7 +562,7 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float], bounce_
     if "offset_nlos" in c:  # is the gap the fit's footprint pattern? the same photographs at the fit's footprint
         yield "camera-fit-footprint", 1.0, with_person_light(t, room.spot, c["offset_nlos"] + c["cam_nlos_shadow"],
                                                              c["cam_nlos_ambient"]), ideal
-        g = footprint_gain(lit.double().numpy(), c["cam_nlos"])
+        g = footprint_gain(body, c["cam_nlos"])
         yield "camera-gain-corrected", 1.0, with_person_light(t, room.spot, c["cam_nlos"] / g + c["cam_nlos_shadow"],
                                                               c["cam_nlos_ambient"]), ideal
     for name, a in CLOTHING.items():

@@ -89,7 +89,8 @@ def tolerance(variation_name: str, burst_frames: int, f_px: float, depth_m: floa
 
 def estimate_drift(net, images: np.ndarray, background: np.ndarray, clipped: np.ndarray | None,
                    tol: np.ndarray, batch_size: int = 256) -> Drift:
-    """The projection's coefficients for every frame (N, H, W, 3) against the empty-room ``background``."""
+    """The drift fit's coefficients (``NuisanceProjection.drift``) for every frame (N, H, W, 3) against
+    the empty-room ``background``."""
     proj = net.nuisance
     out = []
     with torch.inference_mode():

@@ -159,6 +159,8 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
         if (d / "meta.json").exists() else meta
     if stored.get("bounce") and "bounce_near_field" not in stored:  # rendered before the bounce's distance floor
         stored["bounce_near_field"] = 0.0
+        if (out / "train" / "result.json").exists():  # a trained model keeps the light it was trained on
+            meta["bounce_near_field"] = 0.0
     if stored != meta:
         for p in d.glob("block-*.npz"):  # another spot or setting: nothing to keep
             p.unlink()

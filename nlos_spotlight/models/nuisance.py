@@ -50,7 +50,7 @@ NOISE_FLOOR = 0.01
 PERSON_DIRECTIONS = 8
 """Person-light columns of the drift fit: the mean and 7 principal directions (99% of the training
 people's light in the copy room; 1 -> 8 columns take the drift flag's false alarms at 2x ``tripod``
-from 7.4% to 2.7%, 16 or 32 add nothing: ``benchmarks/robustness.py``'s flag check)."""
+from 7.4% to 2.7%, 16 or 32 add nothing: ``benchmarks/drift_directions.py``)."""
 
 
 def nuisance_basis(background: torch.Tensor, fraction: torch.Tensor, relative: torch.Tensor) -> torch.Tensor:
@@ -96,7 +96,8 @@ def person_light_basis(light: torch.Tensor, total: torch.Tensor, k: int = PERSON
     """(k, H, W, 3): the mean and the k - 1 leading principal directions of the people's light
     ``light`` (N, H, W, 3) over the room's rendered light ``total`` (H, W, 3), each of unit norm (the
     drift fit scales its columns anyway)."""
-    rel = (light.double() / total.double().clamp(min=1e-30)).reshape(len(light), -1)
+    total = total.double()
+    rel = torch.where(total > 0, light.double() / total.clamp(min=1e-30), 0.0).reshape(len(light), -1)  # unlit: no say
     mean = rel.mean(0)
     k = max(1, min(k, len(light)))
     vh = torch.linalg.svd(rel - mean, full_matrices=False)[2][:k - 1] if k > 1 else rel[:0]

@@ -36,10 +36,11 @@ if TYPE_CHECKING:
     from .shadow import SpotShadow
 
 H_CHUNK = 1024
+"""Relay points per block of the body <-> h pairs (bounds memory: N x 1024 pairs a block)."""
 NEAR_FIELD = 1.0
 """The relayed legs' distance floor in relay spacings (sqrt of the static area per relay point):
-a relay point nearer a body or camera point than this lights it as if this far (instant radiosity's
-clamp, Keller 1997). Unbounded, relay points next to a camera point lit single pixels 10 to 10,000
+a relay point nearer a spot sample, body point or camera point than this exchanges light with it
+as if this far (instant radiosity's clamp, Keller 1997). Unbounded, relay points next to a camera point lit single pixels 10 to 10,000
 times the person's light there (5 of 100 people in the copy room)."""
 BOUNCE_TAIL = 1.9
 """Everything past the fourth bounce (to depth 10) over ``nlos_bounce``, by Mitsuba 3's particle
@@ -47,7 +48,6 @@ tracer in the three reference scenes: 1.83-2.07, its 4 x 4 blocks correlated 0.9
 ``nlos_bounce`` (1.81-1.99 before the distance floor; ``benchmarks/bounce_mitsuba.py --spp 32768
 --res 16 --tail 10``, docs/results/bounce-mitsuba.txt). ``nlos_bounce`` times this stands in for
 all later bounces."""
-"""Relay points per block of the body <-> h pairs (bounds memory: N x 1024 pairs a block)."""
 
 
 def near_r2(sh: "SpotShadow") -> float:
