@@ -667,11 +667,19 @@ def test_bounce_is_stored_and_trained_on(fitted, room_dir, tmp_path):
     np.testing.assert_allclose(tail.bounce[k].numpy(), 1.9 * s.bounce[k].numpy(), rtol=1e-6)  # every later bounce
     meta = json.loads((out / "shadow" / "meta.json").read_text())
     assert meta["bounce_near_field"] == 1.0
-    del meta["bounce_near_field"]  # as a fit before the bounce's distance floor wrote it: rendered again
+    del meta["bounce_near_field"]  # as a fit before the bounce's distance floor wrote it
     (out / "shadow" / "meta.json").write_text(json.dumps(meta))
     stamps = {p: p.stat().st_mtime_ns for p in (out / "shadow").glob("block-*.npz")}
+    fit_room(str(room_dir), out, cfg, {}, resume=True, progress=False)  # trained: keeps what it learned on
+    assert {p: p.stat().st_mtime_ns for p in stamps} == stamps
+    meta = json.loads((out / "shadow" / "meta.json").read_text())
+    assert meta["bounce_near_field"] == 0.0
+    del meta["bounce_near_field"]
+    (out / "shadow" / "meta.json").write_text(json.dumps(meta))
+    (out / "train" / "result.json").unlink()  # not trained yet: rendered again with the floor
     fit_room(str(room_dir), out, cfg, {}, resume=True, progress=False)
     assert all(p.stat().st_mtime_ns != t for p, t in stamps.items())
+    assert json.loads((out / "shadow" / "meta.json").read_text())["bounce_near_field"] == 1.0
 
 
 def test_method_fits_a_baseline_on_the_same_people(fitted, room_dir, tmp_path):
