@@ -42,6 +42,8 @@ $PY benchmarks/robustness.py --model copyroom:bounce=out/fits7/copyroom-bounce \
 $PY benchmarks/bounce_mitsuba.py --spp 32768 --res 16 --tail 10 --out docs/results/bounce-mitsuba.txt
 $PY benchmarks/bounce_relay_spread.py --model out/people-curve2/copyroom-3000 --people 12 \
     --out docs/results/bounce-relay-spread.txt
+$PY benchmarks/robustness.py --model copyroom:relay=out/people-curve2/copyroom-3000 --camera-draws 4 --noise-draws 5 \
+    --bounce --flag-captures 0 --magnitudes 2 --cache out/robustness7 --out out/robustness8/copyroom-relay-near.csv
 # the bounce rendered again with the distance floor (its shadow step renders again), read on the floored photographs
 $PY -m nlos_spotlight.cli fit --config $ROOMS/copyroom.yaml --out out/fits8/copyroom-near --people 3000 \
     --people-from out/fits7/copyroom-bounce --bounce on --quiet
