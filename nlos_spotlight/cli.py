@@ -357,6 +357,9 @@ def cmd_predict(args: argparse.Namespace) -> None:
 
         layers = load_layers(room.path / "layers.npz")
         tol = tolerance(models.config.variation, burst, layers.f_px, layers.depth_m)
+        if models.net.nuisance.person.numel() == 0:
+            console.print("note: this room model predates the drift fit's people directions, so a person's own light "
+                          f"can read as room-light drift; `nlos fit ... --out {room.path} --resume` adds them")
     if room is not None:
         console.print(room.describe())
         if args.burst is None and burst == room.burst_frames > 1:

@@ -172,7 +172,7 @@ def test_predict_reports_the_drift(fitted, tmp_path, capsys):
     assert "drift_projector" in (tmp_path / "p.csv").read_text().splitlines()[0]
 
 
-def test_the_drift_fit_holds_the_training_peoples_light(fitted, room_dir, tmp_path):
+def test_the_drift_fit_holds_the_training_peoples_light(fitted, room_dir, tmp_path, capsys):
     """The room model's drift fit holds its training people's light directions: the first is their
     mean light over the room's (the held-out people left out), and a room model fitted before the
     directions existed gains them on --resume, the network unchanged."""
@@ -207,6 +207,13 @@ def test_the_drift_fit_holds_the_training_peoples_light(fitted, room_dir, tmp_pa
     del st["net"]["nuisance.person"]
     torch.save(st, old / "final.pt")
     assert load_trained(old).net.nuisance.person.numel() == 0
+    hp = np.load(out / "train" / "heldout.npz")
+    k = int(np.flatnonzero(~np.isnan(hp["photo_image"][:, 0, 0, 0]))[0])
+    np.save(tmp_path / "one.npy", hp["photo_image"][k][None])
+    np.save(tmp_path / "empty.npy", hp["photo_background"][k])
+    capsys.readouterr()
+    assert main(["predict", str(old), str(tmp_path / "one.npy"), "--background", str(tmp_path / "empty.npy")]) == 0
+    assert "predates the drift fit's people directions" in " ".join(capsys.readouterr().out.split())
     fit_room(str(room_dir), old, TINY, {}, resume=True, progress=False)
     again = load_trained(old).net
     assert torch.equal(again.nuisance.person, nui.person)
