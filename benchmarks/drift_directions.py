@@ -4,7 +4,8 @@
 Held-out people of a room model photographed under every capture effect at multiples of ``tripod``
 (as ``benchmarks/robustness.py``'s flag check draws them); per number K of person directions (0:
 the network's own projection), the seven drift directions' errors over their tolerance (mean and
-standard deviation) and the flag's hit rates (``apps.drift.Drift``). The directions come from the
+standard deviation) and the flag's hit rates (``apps.drift.Drift``), estimated as ``nlos predict``
+estimates them (``NuisanceProjection.drift``). The directions come from the
 room model's training people, as ``nlos fit`` keeps them (``fit.train.keep_person_light``).
 
     python benchmarks/drift_directions.py --model out/people-curve2/copyroom-3000 --out docs/results/drift-directions.csv
@@ -13,6 +14,7 @@ room model's training people, as ``nlos fit`` keeps them (``fit.train.keep_perso
 from __future__ import annotations
 
 import argparse
+import copy
 import csv
 import json
 import sys
@@ -35,9 +37,8 @@ def main() -> None:
 
     from nlos_spotlight.apps.drift import Drift, tolerance
     from nlos_spotlight.fit.train import room_split
-    from nlos_spotlight.models.nuisance import DIRECTIONS, noise_weights, nuisance_basis, person_light_basis, project_out
-    from nlos_spotlight.render.variation import draw_captures, preset
-    from nlos_spotlight.train.imaging import drifted_images, form_parts, photographs
+    from nlos_spotlight.models.nuisance import DIRECTIONS, person_light_basis
+    from nlos_spotlight.train.imaging import form_parts
 
     if not (args.model / "report.json").exists():
         sys.exit(f"--model: {args.model} is not a finished room model (no report.json)")
@@ -49,32 +50,23 @@ def main() -> None:
     lit, amb, _ = form_parts(pool, torch.arange(min(cfg.people, pool.num_samples)), y)  # as nlos fit keeps them
     p, a = L.nominal()
     total = p + a
-    proj, burst = net.nuisance, room.sensor.burst_frames
-    tol = tolerance(room.models.config.variation, burst, L.f_px, L.depth_m)
+    proj = copy.deepcopy(net.nuisance)  # its person directions swapped per K; the model's own untouched
+    tol = tolerance(room.models.config.variation, room.sensor.burst_frames, L.f_px, L.depth_m)
     rows = []
     for k in (int(v) for v in args.directions.split(",")):
-        q = person_light_basis(lit + amb, total, k).double() if k else None
+        if k:
+            proj.set_person(person_light_basis(lit + amb, total, k))
+        else:
+            proj.person = torch.zeros(0)  # the network's own projection (``NuisanceProjection.drift``)
         gen = torch.Generator().manual_seed(30_000)
         for m in (float(v) for v in args.multiples.split(",")):
-            v = preset("tripod").capture_effects.scaled(m)
             truth, est, se = [], [], []
-            for a0 in range(0, args.captures, t.num_samples):
-                idx = torch.arange(min(t.num_samples, args.captures - a0))
-                draw = lambda: draw_captures(v, len(idx), burst, L.f_px, L.depth_m, gen)
-                pp, e = draw(), draw()
-                images, empty, free = drifted_images(t, idx, y, None, v, burst, gen, draws=(pp, e))
-                ph = photographs(images, empty, room.sensor, gen, True, True, metered=free)
-                bg = ph.background.expand_as(ph.images).double()
-                basis = nuisance_basis(bg, proj.fraction.double(), proj.relative.double())
-                if q is not None:
-                    basis = torch.cat([basis, bg.unsqueeze(1) * q], 1)
-                _, c, e_ = project_out((ph.images - ph.background).double(), basis, noise_weights(bg, ph.clipped))
-                est.append(c[:, :7].numpy())
-                se.append(e_[:, :7].numpy())
-                truth.append(torch.stack([pp.projector * pp.exposure / (e.projector * e.exposure) - 1,
-                                          pp.ambient * pp.exposure / (e.ambient * e.exposure) - 1,
-                                          pp.shift[:, 0] - e.shift[:, 0], pp.shift[:, 1] - e.shift[:, 1], pp.roll - e.roll,
-                                          pp.aim[:, 0] - e.aim[:, 0], pp.aim[:, 1] - e.aim[:, 1]], 1).double().numpy())
+            for ph, drawn in R.drifted_captures(room, m, args.captures, gen):
+                with torch.no_grad():
+                    c, e_ = proj.drift(ph.images - ph.background, ph.background, ph.clipped)
+                est.append(c.double().numpy())
+                se.append(e_.double().numpy())
+                truth.append(drawn)
             T, E, S = map(np.concatenate, (truth, est, se))
             err = (E - T) / tol
             beyond, judged = Drift(T, tol).flagged, Drift(E, tol, S)

@@ -580,42 +580,52 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float], bounce_
         yield "mitsuba", 1.0, with_person_light(few, room.spot, c["mitsuba_presence"], pick(c["cam_nlos_ambient"])), ideal
 
 
-def flag_rates(room: Room, multiples: list[float], per: int, seed: int = 0) -> list[dict]:
-    """How often ``nlos predict``'s drift flag (``apps.drift``) is right: held-out people photographed
-    under every capture effect at each multiple of ``tripod``; a capture is truly beyond tolerance
-    when the drawn difference of its two captures exceeds the flag's threshold along some direction.
-    Per multiple: captures truly beyond and within, the share of each that is flagged."""
-    from nlos_spotlight.apps.drift import Drift, tolerance
-    from nlos_spotlight.models.nuisance import DIRECTIONS
+def drifted_captures(room: Room, multiple: float, per: int, gen: torch.Generator):
+    """``per`` held-out people photographed under every capture effect at ``multiple`` x ``tripod``,
+    in batches: (photographs, the drift truly drawn between each capture and its empty-room burst
+    (B, 7) in ``models.nuisance.DIRECTIONS`` order)."""
     from nlos_spotlight.render.variation import draw_captures, preset
     from nlos_spotlight.train.imaging import drifted_images, photographs
+
+    L, t = room.test.layers, room.test
+    burst, y = room.sensor.burst_frames, spot_vector(room, t)
+    v = preset("tripod").capture_effects.scaled(multiple)
+    for a in range(0, per, t.num_samples):
+        idx = torch.arange(min(t.num_samples, per - a))
+        d = lambda: draw_captures(v, len(idx), burst, L.f_px, L.depth_m, gen)
+        p, e = d(), d()
+        images, empty, free = drifted_images(t, idx, y, None, v, burst, gen, draws=(p, e))
+        ph = photographs(images, empty, room.sensor, gen, True, True, metered=free)
+        yield ph, torch.stack([p.projector * p.exposure / (e.projector * e.exposure) - 1,
+                               p.ambient * p.exposure / (e.ambient * e.exposure) - 1,
+                               p.shift[:, 0] - e.shift[:, 0], p.shift[:, 1] - e.shift[:, 1], p.roll - e.roll,
+                               p.aim[:, 0] - e.aim[:, 0], p.aim[:, 1] - e.aim[:, 1]], 1).double().numpy()
+
+
+def flag_rates(room: Room, multiples: list[float], per: int, seed: int = 0) -> list[dict]:
+    """How often ``nlos predict``'s drift flag (``apps.drift``) is right: held-out people photographed
+    under every capture effect at each multiple of ``tripod`` (:func:`drifted_captures`); a capture
+    is truly beyond tolerance when the drawn difference of its two captures exceeds the flag's
+    threshold along some direction. Per multiple: captures truly beyond and within, the share of
+    each that is flagged."""
+    from nlos_spotlight.apps.drift import Drift, tolerance
+    from nlos_spotlight.models.nuisance import DIRECTIONS
 
     net = room.models.net
     if getattr(net, "nuisance", None) is None or per < 1:  # no projection, or no check asked for
         return []
-    L, t = room.test.layers, room.test
-    burst = room.sensor.burst_frames
-    tol = tolerance(room.models.config.variation, burst, L.f_px, L.depth_m)
+    L = room.test.layers
+    tol = tolerance(room.models.config.variation, room.sensor.burst_frames, L.f_px, L.depth_m)
     gen = torch.Generator().manual_seed(30_000 + seed)
-    y = spot_vector(room, t)
     rows = []
     for m in multiples:
-        v = preset("tripod").capture_effects.scaled(m)
         truth, est, se = [], [], []
-        for a in range(0, per, t.num_samples):
-            idx = torch.arange(min(t.num_samples, per - a))
-            d = lambda: draw_captures(v, len(idx), burst, L.f_px, L.depth_m, gen)
-            p, e = d(), d()
-            images, empty, free = drifted_images(t, idx, y, None, v, burst, gen, draws=(p, e))
-            ph = photographs(images, empty, room.sensor, gen, True, True, metered=free)
+        for ph, drawn in drifted_captures(room, m, per, gen):
             with torch.no_grad():
                 c, e_ = net.nuisance.drift(ph.images - ph.background, ph.background, ph.clipped)
             est.append(c.double().numpy())
             se.append(e_.double().numpy())
-            truth.append(torch.stack([p.projector * p.exposure / (e.projector * e.exposure) - 1,
-                                      p.ambient * p.exposure / (e.ambient * e.exposure) - 1,
-                                      p.shift[:, 0] - e.shift[:, 0], p.shift[:, 1] - e.shift[:, 1], p.roll - e.roll,
-                                      p.aim[:, 0] - e.aim[:, 0], p.aim[:, 1] - e.aim[:, 1]], 1).double().numpy())
+            truth.append(drawn)
         beyond = Drift(np.concatenate(truth), tol).flagged
         judged = Drift(np.concatenate(est), tol, np.concatenate(se))
         flagged = judged.flagged

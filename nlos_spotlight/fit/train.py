@@ -153,6 +153,7 @@ def keep_person_light(model: Path, people, spot: int, layers) -> bool:
     nuisance; True when written. A room model fitted before them gains them on ``nlos fit --resume``."""
     import os
 
+    from ..lighting.base import Illumination
     from ..models.nuisance import person_light_basis
     from ..train.checkpoint import read_checkpoint
     from ..train.imaging import form_parts
@@ -164,8 +165,7 @@ def keep_person_light(model: Path, people, spot: int, layers) -> bool:
     person = key[:-len("fraction")] + "person"
     if st["net"].get(person, torch.zeros(0)).numel() > 0:
         return False
-    y = torch.zeros(people.u.shape[1])
-    y[spot] = 1
+    y = Illumination("spot", spot).spot_vector(people.u.shape[1])
     lit, ambient, _ = form_parts(people, torch.arange(people.num_samples), y)
     p, a = layers.nominal()
     st["net"][person] = person_light_basis(lit + ambient, p + a)

@@ -174,24 +174,25 @@ class NuisanceProjection(nn.Module):
             raise ValueError(f"nuisance projection: the room prior is {tuple(self.fraction.shape)}, the photographs "
                              f"{tuple(diff.shape[1:])}")
 
-    def forward(self, diff: torch.Tensor, background: torch.Tensor,
-                clipped: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    def _fit(self, diff: torch.Tensor, background: torch.Tensor, clipped: torch.Tensor | None,
+             person: bool) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """:func:`project_out` on ``M`` (and with ``person`` the person directions ``B q_k`` after it)."""
         self._check(diff)
         background = background.expand_as(diff)
         basis = nuisance_basis(background, self.fraction.to(diff.dtype), self.relative.to(diff.dtype))
+        if person:
+            basis = torch.cat([basis, background.unsqueeze(1) * self.person.to(diff.dtype)], dim=1)
         return project_out(diff, basis, noise_weights(background, clipped))
+
+    def forward(self, diff: torch.Tensor, background: torch.Tensor,
+                clipped: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        return self._fit(diff, background, clipped, person=False)
 
     def drift(self, diff: torch.Tensor, background: torch.Tensor,
               clipped: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
         """The seven coefficients (B, 7) and their standard errors (B, 7) of a fit that also holds
         the person's light directions (module docstring): what ``nlos predict`` reports."""
-        if self.person.numel() == 0:
-            return self.forward(diff, background, clipped)[1:]
-        self._check(diff)
-        background = background.expand_as(diff)
-        basis = nuisance_basis(background, self.fraction.to(diff.dtype), self.relative.to(diff.dtype))
-        extra = background.unsqueeze(1) * self.person.to(diff.dtype)
-        _, coef, se = project_out(diff, torch.cat([basis, extra], dim=1), noise_weights(background, clipped))
+        _, coef, se = self._fit(diff, background, clipped, person=self.person.numel() > 0)
         k = len(DIRECTIONS)
         return coef[:, :k], se[:, :k]
 

@@ -40,8 +40,9 @@ H_CHUNK = 1024
 NEAR_FIELD = 1.0
 """The relayed legs' distance floor in relay spacings (sqrt of the static area per relay point):
 a relay point nearer a spot sample, body point or camera point than this exchanges light with it
-as if this far (instant radiosity's clamp, Keller 1997). Unbounded, relay points next to a camera point lit single pixels 10 to 10,000
-times the person's light there (5 of 100 people in the copy room)."""
+as if this far (instant radiosity's clamp, Keller 1997). Unbounded, relay points next to a camera
+point lit single pixels 10 to 10,000 times the person's light there (5 of 100 people in the copy
+room)."""
 BOUNCE_TAIL = 1.9
 """Everything past the fourth bounce (to depth 10) over ``nlos_bounce``, by Mitsuba 3's particle
 tracer in the three reference scenes: 1.83-2.07, its 4 x 4 blocks correlated 0.98 with
