@@ -148,6 +148,29 @@ def test_person_directions_span_the_people_light():
     assert person_light_basis(light[:1], total, 8).shape == (1, H, W, 3)  # one person: the mean only
 
 
+def test_randomized_directions_span_the_exact_ones(monkeypatch):
+    """Above the full SVD's size the leading directions come from a randomized SVD: on people light
+    of a fast-falling spectrum (four patterns and a little noise) they span the exact ones (their
+    principal angles' cosines 1 to 1e-6), and the caller's random stream is left as it was."""
+    import nlos_spotlight.models.nuisance as nui
+
+    g = torch.Generator().manual_seed(3)
+    patterns = torch.randn(4, 600, generator=g, dtype=torch.float64)
+    amounts = torch.randn(200, 4, generator=g, dtype=torch.float64) * torch.tensor([8.0, 4.0, 2.0, 1.0], dtype=torch.float64)
+    x = amounts @ patterns + 1e-3 * torch.randn(200, 600, generator=g, dtype=torch.float64)
+    x = x - x.mean(0)
+    exact = nui.leading_directions(x, 4)
+    monkeypatch.setattr(nui, "EXACT_SVD_ENTRIES", 0)
+    torch.manual_seed(11)
+    before = torch.rand(3)
+    torch.manual_seed(11)
+    fast = nui.leading_directions(x, 4)
+    assert torch.equal(torch.rand(3), before)
+    assert fast.shape == exact.shape == (4, 600)
+    cosines = torch.linalg.svdvals(exact @ fast.T)
+    assert float((1 - cosines).abs().max()) < 1e-6
+
+
 def test_drift_fit_reads_the_room_not_the_person():
     """A difference made of known drift coefficients plus a person's light with a part along the
     room light: the network's projection takes the person for drift (a bias), the drift fit with
