@@ -257,7 +257,8 @@ def cmd_fit(args: argparse.Namespace) -> None:
     if args.room is None:
         raise NlosError("fit: give the room (a scan or scene directory) or --config ROOM.yaml with a room")
     changes = {k: getattr(args, k) for k in ("people", "policy", "seed", "burst", "workers", "capture_preset",
-                                             "pixel_footprint", "shadow_samples", "shadow_relay", "bounce_scale", "clothing",
+                                             "pixel_footprint", "shadow_samples", "shadow_relay", "bounce_scale", "bounce_body_samples",
+                                             "clothing",
                                              "world_variation", "ceiling_people", "render_device")
                if getattr(args, k) is not None}
     if args.footprint_sampling is not None:
@@ -277,6 +278,8 @@ def cmd_fit(args: argparse.Namespace) -> None:
     if args.checkpoint:
         changes["checkpoint"] = args.checkpoint
     cfg = dataclasses.replace(base, **changes)
+    if args.bounce_scale is not None and not cfg.bounce:
+        raise NlosError(f"--bounce-scale {args.bounce_scale:g} scales the bounce, which --bounce off leaves out")
     flags = {k: getattr(args, k) for k in ("camera_position", "camera_look_at", "projector_position")
              if getattr(args, k) is not None}
     flags = {k: _point(v, "--" + k.replace("_", "-")).tolist() for k, v in flags.items()}
@@ -525,9 +528,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "per set of people (jittered: an unbiased pixel mean)")
     f.add_argument("--bounce", choices=("on", "off"), help="also each person's light over one more static bounce "
                    "(the room relaying the spot onto the body and the body's light to the camera), in every "
-                   "training photograph (default off)")
+                   "training photograph (default on; off: the recipe before it)")
     f.add_argument("--bounce-scale", type=float, help="training multiplies the stored fifth bounce by this "
-                   "(default 1; 1.9: every later bounce, as Mitsuba measures them; needs --bounce on)")
+                   "(default 1.9: every later bounce, as Mitsuba measures them; 1: the fifth alone)")
+    f.add_argument("--bounce-body-samples", type=int, help="body samples of the bounce's exchange with the room "
+                   "(default 1024; 0: the body's own quadrature, the recipe before it)")
     f.add_argument("--shadow-samples", type=int, help="static points relaying the spot light each body blocks "
                                                       "(default 4096); 0: the shadow term left out")
     f.add_argument("--shadow-relay", choices=("per-person", "fixed"), help="the shadow's relay points drawn "

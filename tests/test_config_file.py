@@ -82,6 +82,13 @@ def test_fit_config_file_is_the_flags(tmp_path, monkeypatch, capsys):
     assert main(["fit", "--config", str(tmp_path / "cfg" / "room.yaml"), "--out", str(tmp_path / "c"),
                  "--preset", "tiny", "--quiet", "--people", "12"]) == 0
     assert seen[-1][1].people == 12
+    capsys.readouterr()
+    assert main(["fit", "--config", str(tmp_path / "cfg" / "room.yaml"), "--out", str(tmp_path / "e"),
+                 "--preset", "tiny", "--quiet", "--bounce", "off", "--bounce-scale", "2"]) == 2
+    assert "which --bounce off leaves out" in capsys.readouterr().err
+    assert main(["fit", "--config", str(tmp_path / "cfg" / "room.yaml"), "--out", str(tmp_path / "f"),
+                 "--preset", "tiny", "--quiet", "--bounce-body-samples", "0"]) == 0
+    assert seen[-1][1].bounce_body_samples == 0 and seen[-1][1].bounce
     for text, match in (("camera_position: [1, 2]\n", "list of 3 numbers"), ("fit: {peeple: 3}\n", "unknown key"),
                         ("color: red\n", "unknown key 'color'"), ("fit: 3\n", "fit must be a mapping")):
         (tmp_path / "bad.yaml").write_text("room: x.ply\n" + text)

@@ -98,15 +98,16 @@ def _in_worlds(builder, settings, aim: np.ndarray, indices: list[int], offsets: 
 
     v = preset(cfg.world_variation).world_effects
     scan = builder.room_scene()
-    out = {c: [None] * len(indices) for c in WORLD_COMPONENTS}
+    comps = components(cfg)
+    out = {c: [None] * len(indices) for c in comps}
     for j in range(RELAY_SETS):
         pos = [i for i, k in enumerate(indices) if k % RELAY_SETS == j]
         if not pos:
             continue
         world, world_aim, _ = mismatched_world(scan, aim, v, [cfg.seed, WORLD_STREAM, block, j])
-        got = builder.rerender([indices[i] for i in pos], settings, world_aim, WORLD_COMPONENTS,
+        got = builder.rerender([indices[i] for i in pos], settings, world_aim, comps,
                                None if offsets is None else [offsets[i] for i in pos], world=world)
-        for c in WORLD_COMPONENTS:
+        for c in comps:
             for n, i in enumerate(pos):
                 out[c][i] = got[c][n]
     return {c: np.stack(imgs) for c, imgs in out.items()}
@@ -126,7 +127,8 @@ def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int]
 
     out_p, fc = Path(out), FitConfig(**cfg)
     builder, dcfg = room_builder(out_p, fc)
-    settings = dcfg.render_settings(shadow_samples=fc.shadow_samples, device=resolve_device(fc.render_device))
+    settings = dcfg.render_settings(shadow_samples=fc.shadow_samples, bounce_body_samples=fc.bounce_body_samples,
+                                    device=resolve_device(fc.render_device))
     aim = np.asarray(aim, np.float64)
     if fc.world_variation == "ideal":
         got = builder.rerender(indices, settings, aim, components(fc), relay_offsets(indices, fc))
@@ -137,6 +139,11 @@ def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int]
         arrays[c], arrays[f"{c}_scale"] = f16_encode(img, True)
     atomic_npz(_path(out_p, block), indices=np.asarray(indices, np.int64), **arrays)
     return len(indices)
+
+
+BOUNCE_ADDED = {"bounce_near_field": 0.0, "bounce_body_samples": 0}
+"""The bounce's render settings added since it was first stored, at the value blocks from before
+them were rendered with."""
 
 
 def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True) -> None:
@@ -153,14 +160,16 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
     meta = {"face": int(spot["face"]), "aim": [float(a) for a in spot["aim"]], "shadow_samples": cfg.shadow_samples,
             "pixel_footprint": cfg.pixel_footprint, "footprint_jitter": cfg.footprint_jitter, "bounce": cfg.bounce,
             "shadow_relay": cfg.shadow_relay,
-            "world_variation": cfg.world_variation, **({"bounce_near_field": NEAR_FIELD} if cfg.bounce else {})}
+            "world_variation": cfg.world_variation,
+            **({"bounce_near_field": NEAR_FIELD, "bounce_body_samples": cfg.bounce_body_samples} if cfg.bounce else {})}
     stored = {"shadow_relay": "fixed", "world_variation": "ideal", "footprint_jitter": False, "bounce": False,
               **json.loads((d / "meta.json").read_text())} \
         if (d / "meta.json").exists() else meta
-    if stored.get("bounce") and "bounce_near_field" not in stored:  # rendered before the bounce's distance floor
-        stored["bounce_near_field"] = 0.0
-        if (out / "train" / "result.json").exists():  # a trained model keeps the light it was trained on
-            meta["bounce_near_field"] = 0.0
+    for key, before in BOUNCE_ADDED.items():
+        if stored.get("bounce") and key not in stored:  # rendered before this setting of the bounce existed
+            stored[key] = before
+            if (out / "train" / "result.json").exists():  # a trained model keeps the light it was trained on
+                meta[key] = before
     if stored != meta:
         for p in d.glob("block-*.npz"):  # another spot or setting: nothing to keep
             p.unlink()

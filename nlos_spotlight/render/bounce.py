@@ -137,6 +137,9 @@ def bounce_image(sh: "SpotShadow", y: torch.Tensor, person, t: torch.Tensor) -> 
     from .rays import SceneRays
 
     r = sh.r
+    n = r.settings.bounce_body_samples
+    if 0 < n < len(person):  # a coarser, unbiased body quadrature for this smooth term
+        person = person.resampled(n, sh.offset)
     with torch.no_grad():
         t_np = t.detach().cpu().numpy().astype("float64")
         rays = SceneRays(r.rays, person.translated_mesh(t_np))

@@ -77,13 +77,25 @@ class Person:
             face, bary, area = monte_carlo(mesh.face_areas(), n)
         else:
             raise ValueError(f"person quadrature: unknown {quadrature!r} (known: {', '.join(QUADRATURES)})")
+        return cls._at(mesh, face, bary, area, albedo, _watertight(mesh))
+
+    @classmethod
+    def _at(cls, mesh: TriMesh, face, bary, area, albedo, closed: bool) -> "Person":
         pos = np.einsum("ij,ijk->ik", bary, mesh.vertices[mesh.faces[face]])
         alb = np.broadcast_to(np.asarray(albedo, dtype=np.float64), (len(face), 3)).copy()
-        closed = _watertight(mesh)
         # the closed-mesh shortcut skips pairs behind a face's normal: on a mesh wound inward those
         # are the outside ones, so its normals are turned outward (the material is two-sided)
         sign = -1.0 if closed and signed_volume(mesh) < 0 else 1.0
         return cls(mesh, pos, sign * mesh.face_normals()[face], area, alb, closed)
+
+    def resampled(self, n: int, offset: float = 0.5) -> "Person":
+        """The same body by ``n`` stratified samples (the ``"mc"`` rule, strata shifted by
+        ``offset``): an unbiased, coarser quadrature for a smooth term (``RenderSettings.bounce_body_samples``)."""
+        albedo = self.albedo[0]
+        if not np.allclose(self.albedo, albedo):
+            raise ValueError("Person.resampled: the body's albedo varies over its samples")
+        face, bary, area = monte_carlo(self.mesh.face_areas(), n, offset)
+        return Person._at(self.mesh, face, bary, area, albedo, self.closed)
 
     def translated_mesh(self, t: np.ndarray) -> TriMesh:
         return TriMesh(self.mesh.vertices + t, self.mesh.faces)

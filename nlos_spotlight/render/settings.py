@@ -32,6 +32,11 @@ class RenderSettings:
     """Area samples on the body."""
     shadow_samples: int = 4096
     """Area samples of the static surfaces relaying the spot light the person blocks (``nlos_shadow``)."""
+    bounce_body_samples: int = 0
+    """Body samples of ``nlos_bounce``'s body <-> relay exchange: 0 the person's own quadrature (the
+    reference), else this many stratified ones at the relay points' offset (``Person.resampled``):
+    the term is smooth over the body, and its relay points already carry Monte Carlo noise
+    (benchmarks/bounce_body_samples.py)."""
     relay_offset: float = 0.5
     """Offset in [0, 1) of those samples' strata (``person.monte_carlo``); ``Renderer.render`` may
     take another per call, so that people need not share one fixed pattern of relay points."""

@@ -82,7 +82,7 @@ class SpotShadow:
     benchmark's ``relay-offsets``), so a dataset draws the offset per person (``fit/shadow.py``)."""
 
     def __init__(self, r: "Renderer", offset: float = 0.5):
-        self.r = r
+        self.r, self.offset = r, offset
         face, bary, area = monte_carlo(r.static.mesh.face_areas(), r.settings.shadow_samples, offset)
         self.h = r.static.shade(face, bary).torch(r.device, r.dtype)
         self.area = r._t(area)

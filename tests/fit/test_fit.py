@@ -315,10 +315,19 @@ def test_config_checks():
     with pytest.raises(Exception, match="2\\^63"):  # refused before anything renders
         FitConfig(seed=2**64)
     assert PRESETS["default"].samples == 24 + 3000 + 200
-    for bad in ({"bounce_scale": 0.0, "bounce": True}, {"bounce_scale": float("nan"), "bounce": True},
-                {"bounce_scale": 1.9}):  # the last: a scale without the bounce it scales
+    for bad in ({"bounce_scale": 0.0}, {"bounce_scale": float("nan")}, {"bounce_scale": 11.0}):
         with pytest.raises(Exception, match="--bounce-scale"):
             FitConfig(**bad)
+    from nlos_spotlight.render.bounce import BOUNCE_TAIL
+
+    cfg = FitConfig()  # the default recipe trains on every later bounce, as Mitsuba measures them
+    assert cfg.bounce and cfg.bounce_scale == BOUNCE_TAIL and cfg.bounce_body_samples > 0
+    assert FitConfig(bounce=False, bounce_scale=3.0).bounce_scale == 1.0  # nothing to scale
+    with pytest.raises(Exception, match="add --bounce off"):  # the bounce goes through the shadow's relay points
+        FitConfig(shadow_samples=0)
+    assert not FitConfig(shadow_samples=0, bounce=False).bounce
+    with pytest.raises(Exception, match="bounce_body_samples"):
+        FitConfig(bounce_body_samples=-1)
 
 
 def test_deeply_nested_scene_is_one_line(tmp_path, capsys):
@@ -472,7 +481,7 @@ def test_world_variation_trains_on_each_person_in_a_drawn_world(fitted, tmp_path
     for b in range(0, len(first), 100):  # every block, as the step renders them
         _render_block(str(dest), cfg.to_dict(), aim.tolist(), b // 100, first[b:b + 100])
     got = load_block_light(dest, cfg)
-    assert set(got) == set(WORLD_COMPONENTS) and all(len(v) == len(first) for v in got.values())
+    assert set(got) == {*WORLD_COMPONENTS, "nlos_bounce"} and all(len(v) == len(first) for v in got.values())
     dcfg = dataclasses.replace(dataset_config(TINY, dest / "room"), room=str((dest / "room").resolve()))
     builder = SceneBuilder(dcfg, plan(dcfg)[0], dest / "data")
     settings = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=TINY.pixel_footprint,
@@ -483,8 +492,9 @@ def test_world_variation_trains_on_each_person_in_a_drawn_world(fitted, tmp_path
     world, world_aim, drawn = mismatched_world(builder.room_scene(), aim, preset("tripod").world_effects,
                                                [TINY.seed, WORLD_STREAM, 0, k % RELAY_SETS])
     assert set(drawn) >= {"camera_deg", "projector_deg", "albedo_factor", "geometry_m"}
-    again = builder.rerender([k], settings, world_aim, WORLD_COMPONENTS, relay_offsets([k], cfg), world=world)
-    for c in WORLD_COMPONENTS:  # float16 storage
+    again = builder.rerender([k], settings, world_aim, (*WORLD_COMPONENTS, "nlos_bounce"), relay_offsets([k], cfg),
+                             world=world)
+    for c in (*WORLD_COMPONENTS, "nlos_bounce"):  # float16 storage; the bounce in the same world
         np.testing.assert_allclose(got[c][i], again[c][0], rtol=2e-3, atol=2e-3 * np.abs(again[c][0]).max())
     scan = builder.rerender([k], settings, aim, ("nlos",))["nlos"][0]
     assert np.linalg.norm(got["nlos"][i] - scan) > 0.01 * np.linalg.norm(scan), "the world is the scan"
@@ -660,7 +670,7 @@ def test_bounce_is_stored_and_trained_on(fitted, room_dir, tmp_path):
         idx, settings, np.asarray(report["spot"]["aim"]), ("nlos_bounce",), relay_offsets(idx, cfg))["nlos_bounce"][0]
     np.testing.assert_allclose(got["nlos_bounce"][k], again, rtol=2e-3, atol=2e-3 * np.abs(again).max())
     s, = load_split(out / "data", "train", [], samples="images")
-    s = with_shadow(s, out, cfg, report["spot"]["face"])
+    s = with_shadow(s, out, dataclasses.replace(cfg, bounce_scale=1.0), report["spot"]["face"])  # as stored
     y = torch.zeros(len(s.faces))
     y[report["spot"]["face"]] = 1.0
     i = torch.tensor([k])
