@@ -778,7 +778,9 @@ def test_method_without_a_spot_fits_under_its_light(fitted, room_dir, tmp_path, 
     assert sp["policies"]["oracle"] == spot_report["spot_policies"]["policies"]["oracle"]
     c = report["ceiling"]
     assert c["people"] == TINY.ceiling_people and 0 <= c["posture_accuracy"] <= 1 and c["position_crb_cm"] > 0
-    assert json.loads((out / "ceiling.json").read_text())["key"]["light"] == light
+    stored = json.loads((out / "ceiling.json").read_text())
+    assert stored["key"]["light"] == light
+    _ceiling_renders_the_stored_light(out, cfg, scene, light, stored["indices"][0])
     html = (out / "report.html").read_text()
     assert "Light: no spot" in html and "Where to aim the projector" not in html
     # predict: what to photograph, no aim; the evaluation's answer for a held-out person's photograph
@@ -795,6 +797,25 @@ def test_method_without_a_spot_fits_under_its_light(fitted, room_dir, tmp_path, 
     frame = json.loads((tmp_path / "p.json").read_text())["frames"][0]
     person = int(np.flatnonzero(np.all(hp["true_xy"] == hp["photo_xy"][k], axis=1))[0])
     assert [frame["x_m"], frame["y_m"]] == pytest.approx(hp["pred_xy"][person].tolist(), abs=1e-4)
+
+
+def _ceiling_renders_the_stored_light(out, cfg, scene, light: str, i: int) -> None:
+    """The ceiling's renderer of a light without a spot gives held-out person ``i``'s light as the
+    dataset stored it (``flash_nlos`` + ``nlos_ambient``, or ``nlos_ambient``; float16 with a scale)."""
+    from nlos_spotlight.data.store import f16_decode
+    from nlos_spotlight.fit.ceiling import light_renderer, person_light
+    from nlos_spotlight.fit.run import room_builder
+
+    builder, dcfg = room_builder(out, cfg)
+    room, specs = builder._scan_people()
+    r, y = light_renderer(room, dcfg.render_settings(), light, {})
+    t = np.array([*specs[i]["position"], room.hidden_region.floor_z])
+    got = person_light(r, y, specs[i]["params"], t, dcfg).numpy()
+    with np.load(scene / "images" / f"{i:05d}.npz") as z:
+        stored = f16_decode(z, "nlos_ambient") + (f16_decode(z, "flash_nlos") if light == "flash" else 0)
+    scale = np.abs(stored).max()
+    assert scale > 0
+    np.testing.assert_allclose(got.reshape(stored.shape) / scale, stored / scale, atol=2e-3)
 
 
 def test_a_method_without_a_spot_refuses_the_spots_terms(room_dir, tmp_path, capsys, monkeypatch):
