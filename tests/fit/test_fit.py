@@ -589,6 +589,8 @@ def test_a_second_fit_into_the_same_out_is_refused(room_dir, tmp_path, capsys):
     (lambda r: r["capture"].update(burst_frames=0), "burst_frames"),
     (lambda r: r["capture"].update(exposure_s=-1), "exposure_s"),
     (lambda r: r["room"]["hidden_region"].update(max=r["room"]["hidden_region"]["min"]), "not a box"),
+    (lambda r: r.update(light={"mode": "flash"}), "aims no spot"),
+    (lambda r: r.update(light={"mode": "strobe"}), "light must be"),
 ])
 def test_a_hand_edited_report_is_refused(fitted, tmp_path, edit, words):
     """``report.json`` is validated when a room model is loaded (issue 36, item 15); the fit's own loads."""
