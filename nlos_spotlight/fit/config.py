@@ -13,7 +13,9 @@ POLICIES = ("oracle", "ien", "adaptive", "center", "random")
 
 @dataclass
 class FitConfig:
-    """One fit of a room model (saved as ``ROOM_MODEL/fit.json``)."""
+    """One fit of a room model (saved as ``ROOM_MODEL/fit.json``). A method without a spot
+    (:attr:`light`: 'tancik', 'dlnlos') trains without the spot's terms: no shadow, bounce, drawn
+    worlds or capture drift (``method``)."""
 
     name: str = "default"
     """Preset name."""

@@ -739,6 +739,8 @@ def test_method_without_a_spot_fits_under_its_light(fitted, room_dir, tmp_path, 
     out = tmp_path / method
     cfg = dataclasses.replace(TINY, method=method, policy=light, **NO_SPOT)
     report = fit_room(str(room_dir), out, cfg, {}, progress=False, people_from=src)
+    a, b = (sorted((d / "data").rglob("images/*.npz"))[0] for d in (src, out))
+    assert a.stat().st_ino == b.stat().st_ino  # the spot fit's people, nothing rendered again
     assert report["spot"] is None and report["light"]["mode"] == light
     assert set(report["light"]["not_rendered"]) == {"spot", "layers", "shadow", "bounce"}
     assert not (out / "layers.npz").exists() and not (out / "shadow").exists()
@@ -785,6 +787,8 @@ def test_method_without_a_spot_fits_under_its_light(fitted, room_dir, tmp_path, 
     _ceiling_renders_the_stored_light(out, cfg, scene, light, stored["indices"][0])
     html = (out / "report.html").read_text()
     assert "Light: no spot" in html and "Where to aim the projector" not in html
+    again = fit_room(str(room_dir), out, cfg, {}, resume=True, progress=False)
+    assert again["heldout"] == report["heldout"] and again["ceiling"] == report["ceiling"]
     # predict: what to photograph, no aim; the evaluation's answer for a held-out person's photograph
     hp = np.load(out / "train" / "heldout.npz")
     k = int(np.flatnonzero(~np.isnan(hp["photo_image"][:, 0, 0, 0]))[0])
