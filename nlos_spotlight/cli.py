@@ -245,15 +245,7 @@ def cmd_fit(args: argparse.Namespace) -> None:
 
     if args.preset not in PRESETS:
         raise NlosError(f"--preset: expected one of {', '.join(PRESETS)}, got {args.preset!r}")
-    base = PRESETS[args.preset]
-    if args.config:  # a room config: its setup unless a flag says otherwise, its fit settings on the preset
-        from .config_file import apply_fields, load_room_config
-
-        rc = load_room_config(args.config)
-        for k in ("room", "camera_position", "camera_look_at", "projector_position", "hidden_region", "up"):
-            if k in rc and getattr(args, k) is None:
-                setattr(args, k, rc[k])
-        base = apply_fields(base, rc["fit"], args.config, "fit.")
+    base, given = _config_file(args, PRESETS[args.preset]) if args.config else (PRESETS[args.preset], set())
     if args.room is None:
         raise NlosError("fit: give the room (a scan or scene directory) or --config ROOM.yaml with a room")
     changes = {k: getattr(args, k) for k in ("people", "policy", "seed", "burst", "workers", "capture_preset",
@@ -264,11 +256,8 @@ def cmd_fit(args: argparse.Namespace) -> None:
     if args.footprint_sampling is not None:
         changes["footprint_jitter"] = args.footprint_sampling == "jittered"
     if args.method is not None:
-        from .evaluate.methods import fit_method
-
         changes["method"] = args.method
-        if args.method != "ours" and args.policy is None:  # a baseline aims with its own policy
-            changes["policy"] = fit_method(args.method).policy
+        changes.update(_method_defaults(args.method, given | set(changes), args.policy is None))
     if args.bounce is not None:
         changes["bounce"] = args.bounce == "on"
     if "burst" in changes:
@@ -289,6 +278,37 @@ def cmd_fit(args: argparse.Namespace) -> None:
         flags["up"] = args.up
     fit_room(args.room, output_dir(args.out, "--out"), cfg, flags, resume=args.resume, progress=not args.quiet,
              people_from=Path(args.people_from) if args.people_from else None)
+
+
+def _config_file(args: argparse.Namespace, base):
+    """(``base`` with the room config's fit settings, the names it sets); its room setup goes into
+    ``args`` unless a flag says otherwise. Its method (unless ``--method`` replaces it) brings the
+    settings it implies where neither the file nor a flag sets them (:func:`_method_defaults`)."""
+    from .config_file import apply_fields, load_room_config
+
+    rc = load_room_config(args.config)
+    for k in ("room", "camera_position", "camera_look_at", "projector_position", "hidden_region", "up"):
+        if k in rc and getattr(args, k) is None:
+            setattr(args, k, rc[k])
+    fit = rc["fit"]
+    if args.method is None and isinstance(fit.get("method"), str):
+        flags = {k for k in ("policy", "shadow_samples", "capture_preset") if getattr(args, k) is not None}
+        fit = {**_method_defaults(fit["method"], set(fit) | flags, "policy" not in set(fit) | flags), **fit}
+    return apply_fields(base, fit, args.config, "fit."), set(rc["fit"])
+
+
+def _method_defaults(method: str, given: set[str], policy_free: bool) -> dict:
+    """The fit settings ``--method`` implies where neither a flag nor the config file sets them: a
+    baseline's own policy, and for one without a spot the settings without a spot term
+    (``fit.config.UNAIMED_DEFAULTS``; one given otherwise is refused by name)."""
+    from .evaluate.methods import UNAIMED, fit_method
+    from .fit.config import UNAIMED_DEFAULTS
+
+    m = fit_method(method)
+    out = {"policy": m.policy} if method != "ours" and policy_free else {}
+    if m.policy in UNAIMED:
+        out.update({k: v for k, v in UNAIMED_DEFAULTS.items() if k not in given})
+    return out
 
 
 def _outputs_not_inputs(args: argparse.Namespace) -> None:
@@ -509,9 +529,11 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--up", help="a bare scan's up axis: x, y, z, -x, -y, -z (default: detected)")
     f.add_argument("--people", type=int, help="synthetic training people (default 3000)")
     f.add_argument("--policy", help="spot policy: oracle (default), ien (with --checkpoint), adaptive, center, random")
-    f.add_argument("--method", help="what is fitted (nlos evaluate's methods that aim a spot): ours (default: the "
-                                    "--policy spot and ResNet-18), al_resnet, center_resnet, random_resnet, "
-                                    "oracle_resnet, chandran (Adaptive Lighting's spot and Chandran's CNN), ien_cnn")
+    f.add_argument("--method", help="what is fitted (nlos evaluate's methods): ours (default: the --policy spot "
+                                    "and ResNet-18), al_resnet, center_resnet, random_resnet, oracle_resnet, chandran "
+                                    "(Adaptive Lighting's spot and Chandran's CNN), ien_cnn; without a spot: tancik "
+                                    "(the flash, Tancik et al.'s CNN), dlnlos (projector off, DL-NLOS's CNN), which "
+                                    "render no shadow, bounce or drift (--shadow-samples 0, --capture-preset ideal)")
     f.add_argument("--checkpoint", help="trained run whose IEN picks the spot (--policy ien)")
     f.add_argument("--burst", type=int, help="frames averaged per capture (default 16)")
     f.add_argument("--workers", type=int, help="processes rendering people (default 2)")

@@ -52,13 +52,17 @@ BY_NAME = {m.name: m for m in METHODS}
 
 
 FIT_POLICIES = ("oracle", "ien", "adaptive", "center", "random")
-"""Spot policies ``nlos fit`` can aim with (the flash and the projector off light no spot to aim)."""
+"""Spot policies ``nlos fit`` can aim with."""
+
+UNAIMED = ("flash", "ambient")
+"""Policies that light no spot, which ``nlos fit`` fits too: the flash at the camera lighting its
+whole view (Tancik et al.) and the projector off, the room's own light only (DL-NLOS)."""
 
 
 def fittable(m: Method) -> bool:
-    """Whether ``nlos fit --method`` can fit ``m`` in a room: a spot policy and an image network,
-    no setting of the IEN's own training."""
-    return m.policy in FIT_POLICIES and m.arch != FLOOR_NET and not m.overrides  # no network import: configs validate it
+    """Whether ``nlos fit --method`` can fit ``m`` in a room: a spot policy or no spot
+    (:data:`UNAIMED`) and an image network, no setting of the IEN's own training."""
+    return m.policy in FIT_POLICIES + UNAIMED and m.arch != FLOOR_NET and not m.overrides  # no network import
 
 
 def fit_method(name: str) -> Method:

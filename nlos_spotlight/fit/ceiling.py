@@ -13,6 +13,10 @@ the person-free frame as the study ``experiments/physics-bounds`` does):
 * the position Cramer-Rao bound of the person's own posture (``evaluate.crb``: the RMS error of
   any unbiased estimator that knows everything but x and y).
 
+A fit without a spot (``FitConfig.light``) computes the same under its own light: the flash (the
+dataset's flash renderer, ``data/flash.py``) or the projector off (no projector term: the person's
+light is ``nlos_ambient`` alone, the exposure metered on the room's own light).
+
 Both are upper bounds on what the room model can reach: they know the body's build and pose
 variant, the room exactly, and read one capture without the empty-room photograph's noise or the
 capture's drift. Cost: 6 x 15 renders a person (about 0.5 min each on 2 cores at the fit settings).
@@ -82,6 +86,22 @@ def crb_m(jac_xy: torch.Tensor, frames: int) -> float:
     return float(torch.sqrt(torch.trace(torch.linalg.inv(fisher))))
 
 
+def light_renderer(room, settings, light: str, spot: dict):
+    """(``Renderer``, spot vector y) of the fit's light in ``room``: the chosen ``spot``; 'flash' the
+    flash as the dataset renders it (``data.scene_builder``: its scene and projector rays); 'ambient'
+    y zero, so that no projector term is lit (the aim is then only a placeholder the renderer needs)."""
+    from ..data.flash import FLASH_SPOT_SAMPLES, flash_scene
+    from ..render.transport import Renderer
+
+    if light == "flash":
+        more = dataclasses.replace(settings, spot_samples=settings.spot_samples * FLASH_SPOT_SAMPLES)
+        r = Renderer(flash_scene(room), more, aim_points=room.camera.look_at[None])
+        return r, r.spot_vector(0)
+    aim = room.camera.look_at if light == "ambient" else spot["aim"]
+    r = Renderer(room, settings, aim_points=np.asarray(aim, np.float64)[None])
+    return r, r.spot_vector(0) * (light == "spot")
+
+
 def room_ceiling(out: Path, cfg: FitConfig, spot: dict, progress: bool = True) -> dict:
     """The ceiling of a fitted room (module docstring) over its first ``cfg.ceiling_people`` held-out people."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
@@ -90,7 +110,6 @@ def room_ceiling(out: Path, cfg: FitConfig, spot: dict, progress: bool = True) -
     from ..evaluate.ideal_observer import ideal_observer
     from ..render.sensor import SensorConfig, auto_exposure, dn_per_radiance, noise_variance_dn
     from ..render.settings import resolve_device
-    from ..render.transport import Renderer
     from ..world.body import POSTURES
     from .run import room_builder
     from .train import capture_overrides, heldout_indices
@@ -98,8 +117,7 @@ def room_ceiling(out: Path, cfg: FitConfig, spot: dict, progress: bool = True) -
     builder, dcfg = room_builder(out, cfg)
     room, specs = builder._scan_people()
     settings = dcfg.render_settings(device=resolve_device(cfg.render_device))
-    r = Renderer(room, settings, aim_points=np.asarray(spot["aim"], np.float64)[None])
-    y = r.spot_vector(0)
+    r, y = light_renderer(room, settings, cfg.light, spot)
     sensor = SensorConfig.at(r.shape, capture_overrides(out, cfg), {"burst_frames": 1})  # one frame's noise
     static = r.render(y, None, components=("direct", "ambient")).image.double()
     k = dn_per_radiance(auto_exposure(static, sensor), sensor)
@@ -136,7 +154,8 @@ def ceiling_record(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
     if cfg.ceiling_people == 0:
         return None
     path = Path(out) / "ceiling.json"
-    key = {"face": int(spot["face"]), "people": cfg.ceiling_people, "burst_frames": cfg.burst_frames}
+    key = {"face": int(spot["face"]), "people": cfg.ceiling_people, "burst_frames": cfg.burst_frames,
+           **({} if cfg.light == "spot" else {"light": cfg.light})}
     if path.exists():
         try:
             got = json.loads(path.read_text())

@@ -13,7 +13,9 @@ POLICIES = ("oracle", "ien", "adaptive", "center", "random")
 
 @dataclass
 class FitConfig:
-    """One fit of a room model (saved as ``ROOM_MODEL/fit.json``)."""
+    """One fit of a room model (saved as ``ROOM_MODEL/fit.json``). A method without a spot
+    (:attr:`light`: 'tancik', 'dlnlos') trains without the spot's terms: no shadow, bounce, drawn
+    worlds or capture drift (``method``)."""
 
     name: str = "default"
     """Preset name."""
@@ -27,8 +29,13 @@ class FitConfig:
     """Spot policy: exhaustive physics search (oracle) or one of ``POLICIES``."""
     method: str = "ours"
     """What is fitted, from the methods of ``evaluate/methods.py`` (``fit_method``): 'ours' (the
-    ``policy`` spot and ResNet-18), or a baseline that aims with a spot (e.g. 'chandran': Adaptive
-    Lighting's spot and Chandran's CNN), whose own policy ``policy`` must then be."""
+    ``policy`` spot and ResNet-18), a baseline that aims with a spot (e.g. 'chandran': Adaptive
+    Lighting's spot and Chandran's CNN), or one that lights none (:attr:`light`): 'tancik' (the
+    flash, Tancik et al.'s CNN) or 'dlnlos' (projector off, DL-NLOS's CNN); ``policy`` must then
+    be the method's own. Without a spot the fit renders no spot term: no shadow, bounce, drawn
+    worlds or capture drift (``shadow_samples`` 0, ``bounce`` off, ``world_variation`` and
+    ``capture_preset`` 'ideal', else refused): its photographs hold the person's flash or room
+    light (``flash_nlos``, ``nlos_ambient``) but not the flash or room light the body blocks."""
     checkpoint: str = ""
     """Trained run whose IEN picks the spot (policy 'ien')."""
     seed: int = 0
@@ -119,6 +126,7 @@ class FitConfig:
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, int) or v < lo:
                 raise NlosError(f"fit: {k} must be an integer of at least {lo}, got {v!r}")
+        self._check_light()
         if isinstance(self.shadow_samples, bool) or not isinstance(self.shadow_samples, int) \
                 or not 0 <= self.shadow_samples <= 1_000_000:
             raise NlosError(f"fit: shadow_samples must be an integer from 0 (off) to 1000000, got {self.shadow_samples!r}")
@@ -165,16 +173,44 @@ class FitConfig:
             raise NlosError(f"--world-variation: {str(exc).split(': ', 1)[1]}") from None
         if self.world_variation != "ideal" and self.shadow_samples == 0:
             raise NlosError("--world-variation renders the people again with their shadow: it needs --shadow-samples > 0")
-        if self.policy not in POLICIES:
-            raise NlosError(f"--policy: expected one of {', '.join(POLICIES)}, got {self.policy!r}")
-        from ..evaluate.methods import fit_method
+        from ..evaluate.methods import UNAIMED, fit_method
 
         m = fit_method(self.method)
+        if self.policy not in POLICIES and not (self.policy in UNAIMED and self.policy == m.policy):
+            hint = f" (it lights no spot: --method {UNAIMED_METHODS[self.policy]})" if self.policy in UNAIMED else ""
+            raise NlosError(f"--policy: expected one of {', '.join(POLICIES)}, got {self.policy!r}{hint}")
         if self.method != "ours" and self.policy != m.policy:
-            raise NlosError(f"--method {self.method} aims with the {m.policy} spot, not --policy {self.policy}")
+            what = (f"lights no spot ({LIGHT_WORDS[m.policy]}: policy {m.policy})" if m.policy in UNAIMED
+                    else f"aims with the {m.policy} spot")
+            raise NlosError(f"--method {self.method} {what}, not --policy {self.policy}")
         if (self.policy == "ien") != bool(self.checkpoint):
             raise NlosError("--policy ien needs --checkpoint RUN (a run trained with policy 'ien'), "
                             "and --checkpoint goes only with --policy ien")
+
+    @property
+    def light(self) -> str:
+        """What lights the photographs: 'spot' (aimed), or the policy of a method that lights none
+        ('flash', 'ambient': ``evaluate.methods.UNAIMED``)."""
+        from ..evaluate.methods import UNAIMED, fit_method
+
+        policy = fit_method(self.method).policy
+        return policy if policy in UNAIMED else "spot"
+
+    def _check_light(self) -> None:
+        """Refuse, in one line, a setting that renders a spot's term when the method lights no spot."""
+        if self.light == "spot":
+            return
+        why = f"--method {self.method} lights no spot ({LIGHT_WORDS[self.light]})"
+        spot_only = ((self.bounce is not False, "--bounce on", "the bounce relays the spot's light", "--bounce off"),
+                     (self.shadow_samples != 0, f"--shadow-samples {self.shadow_samples}",
+                      "the body's shadow is rendered under a spot only", "--shadow-samples 0"),
+                     (self.world_variation != "ideal", f"--world-variation {self.world_variation}",
+                      "the drawn worlds are rendered under the spot", "--world-variation ideal"),
+                     (self.capture_preset != "ideal", f"--capture-preset {self.capture_preset}",
+                      "capture drift is modelled for the spot's light only", "--capture-preset ideal"))
+        for bad, flag, reason, fix in spot_only:
+            if bad:
+                raise NlosError(f"{flag}: {reason}, and {why}; give {fix}")
 
     @property
     def samples(self) -> int:
@@ -189,6 +225,15 @@ class FitConfig:
         """The config a room model was fitted with (``fit.json``'s settings): a setting its version
         did not have yet takes the value that version used (:data:`BEFORE`), not today's default."""
         return cls(**{k: v for k, v in recorded(settings).items() if k in cls.__dataclass_fields__})
+
+
+LIGHT_WORDS = {"flash": "the flash at the camera lighting its whole view", "ambient": "the projector off"}
+"""A light without a spot in words (``FitConfig.light``)."""
+UNAIMED_METHODS = {"flash": "tancik", "ambient": "dlnlos"}
+"""The method ``nlos fit`` fits under each light without a spot."""
+UNAIMED_DEFAULTS = {"shadow_samples": 0, "capture_preset": "ideal"}
+"""What ``nlos fit --method tancik|dlnlos`` sets where no flag or config file says: the settings
+without a spot term (``FitConfig._check_light`` refuses any other value)."""
 
 
 MAX_WORKERS = 256

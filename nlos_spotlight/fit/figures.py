@@ -16,7 +16,8 @@ MAX_DRAWN_FACES = 6000
 
 def room_3d(room_dir: Path, room: dict, spot: dict, path: Path) -> None:
     """The room's faces in 3D (colored by albedo and shaded by height), camera, projector, the beam
-    to the spot, the hidden region's rectangle on the floor."""
+    to the spot (none for a fit without a spot: ``spot`` face -1), the hidden region's rectangle on
+    the floor."""
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     from ..scene.io import load_scene
@@ -31,8 +32,7 @@ def room_3d(room_dir: Path, room: dict, spot: dict, path: Path) -> None:
     keep = np.arange(len(tri))
     if len(tri) > MAX_DRAWN_FACES:  # the largest faces carry the room's shape
         keep = np.argsort(-mesh.face_areas())[:MAX_DRAWN_FACES]
-    cam, proj, aim = (np.asarray(room["camera"]["position"]), np.asarray(room["projector"]["position"]),
-                      np.asarray(spot["aim"]))
+    cam, proj = np.asarray(room["camera"]["position"]), np.asarray(room["projector"]["position"])
     hr = room["hidden_region"]
     fig = plt.figure(figsize=(9, 7))
     ax = fig.add_subplot(projection="3d")
@@ -44,8 +44,10 @@ def room_3d(room_dir: Path, room: dict, spot: dict, path: Path) -> None:
     x1, y1 = hr["max"]
     z = hr["floor_z"] + 0.01
     ax.plot([x0, x1, x1, x0, x0], [y0, y0, y1, y1, y0], [z] * 5, color="tab:red", lw=2, label="hidden region")
-    ax.plot(*zip(proj, aim), color="cyan", lw=2, label="beam")
-    ax.scatter(*aim, marker="*", s=200, color="cyan", edgecolors="black", label=f"spot (face {spot['face']})")
+    if spot["face"] >= 0:
+        aim = np.asarray(spot["aim"])
+        ax.plot(*zip(proj, aim), color="cyan", lw=2, label="beam")
+        ax.scatter(*aim, marker="*", s=200, color="cyan", edgecolors="black", label=f"spot (face {spot['face']})")
     ax.scatter(*cam, marker="^", s=80, color="tab:blue", label="camera")
     ax.scatter(*proj, marker="s", s=60, color="tab:green", label="projector")
     look = np.asarray(room["camera"]["look_at"])

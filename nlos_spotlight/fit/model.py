@@ -38,11 +38,24 @@ class RoomModel:
         """Network positions (N, 2) (region frame) -> (N, 2) x, y in the room's z-up frame, m."""
         return region_to_world(np.asarray(xy, np.float64), self.report["room"])
 
+    @property
+    def light(self) -> str:
+        """'spot', 'flash' or 'ambient' (projector off): what lights the photographs it reads (a
+        report written before fits without a spot has a spot)."""
+        return (self.report.get("light") or {}).get("mode", "spot")
+
     def describe(self) -> str:
+        """What to photograph: where the spot is aimed, or with what light, and the capture."""
         s = self.report["spot"]
-        return (f"room model {self.path}: spot on face {s['face']} (pan {s['pan_deg']:+.1f} deg, tilt "
-                f"{s['tilt_deg']:+.1f} deg); capture: bursts of {self.burst_frames} frames of "
-                f"{1000 * self.exposure_s:.0f} ms, minus the empty-room burst (--background)")
+        light = (f"spot on face {s['face']} (pan {s['pan_deg']:+.1f} deg, tilt {s['tilt_deg']:+.1f} deg)"
+                 if self.light == "spot" else f"no spot: {LIGHTS[self.light]}")
+        return (f"room model {self.path}: {light}; capture: bursts of {self.burst_frames} frames of "
+                f"{1000 * self.exposure_s:.0f} ms, minus the empty-room burst (--background) in the same light")
+
+
+LIGHTS = {"flash": "flash photographs (a flash at the camera lighting its whole view, no projector spot)",
+          "ambient": "projector-off photographs (the room's own light only)"}
+"""What ``nlos predict`` tells the user to photograph for a room model without a spot."""
 
 
 def load_room_model(path: str | Path) -> RoomModel | None:
@@ -54,21 +67,28 @@ def load_room_model(path: str | Path) -> RoomModel | None:
     try:
         report = json.loads(rep.read_text())
         c, r, s = report["capture"], report["room"], report["spot"]
-        int(c["burst_frames"]), float(c["exposure_s"]), int(s["face"]), float(s["pan_deg"]), float(s["tilt_deg"])
+        light = (report.get("light") or {}).get("mode", "spot")
+        int(c["burst_frames"]), float(c["exposure_s"])
+        if light == "spot":
+            int(s["face"]), float(s["pan_deg"]), float(s["tilt_deg"])
         hr, cam = r["hidden_region"], r["camera"]
         numbers = [float(v) for v in (*hr["min"], *hr["max"], *cam["position"], *cam["look_at"])]
     except FileNotFoundError:
         raise NlosError(f"{p}: the fit has not finished (no report.json); rerun nlos fit with --resume") from None
-    except (json.JSONDecodeError, KeyError, TypeError, ValueError):
+    except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError):
         raise NlosError(f"{rep}: corrupted or not a room model report") from None
-    problem = _report_problem(c, s, numbers)
+    problem = _report_problem(c, s, numbers, light)
     if problem:
         raise NlosError(f"{rep}: {problem} (edited or damaged; fit the room again)")
     return RoomModel(p, report)
 
 
-def _report_problem(capture: dict, spot: dict, numbers: list[float]) -> str | None:
+def _report_problem(capture: dict, spot: dict | None, numbers: list[float], light: str) -> str | None:
     """What makes a parsed ``report.json`` impossible for a fit to have written, or None."""
+    if light not in ("spot", *LIGHTS):
+        return f"light must be spot, {' or '.join(LIGHTS)}, got {light!r}"
+    if light != "spot" and spot is not None:
+        return f"a {light} room model aims no spot, but its report names one"
     if not all(np.isfinite(numbers)) or max(abs(v) for v in numbers) > 1e6:
         return "a non-finite or absurd coordinate in the room's camera or hidden region"
     lo, hi = np.asarray(numbers[:2]), np.asarray(numbers[2:4])
@@ -80,6 +100,6 @@ def _report_problem(capture: dict, spot: dict, numbers: list[float]) -> str | No
         return f"burst_frames must be an integer from 1 to 1000, got {capture['burst_frames']!r}"
     if not 0 < float(capture["exposure_s"]) <= 3600:
         return f"exposure_s must be a positive number of seconds, got {capture['exposure_s']!r}"
-    if not all(np.isfinite([float(spot["pan_deg"]), float(spot["tilt_deg"])])):
+    if light == "spot" and not all(np.isfinite([float(spot["pan_deg"]), float(spot["tilt_deg"])])):
         return "the spot's pan and tilt are not finite"
     return None

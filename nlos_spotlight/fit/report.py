@@ -28,27 +28,38 @@ def region_to_world(xy: np.ndarray, room: dict) -> np.ndarray:
     return origin + xy[:, :1] * fwd + xy[:, 1:] * left
 
 
+def person_free(out: Path, cfg: FitConfig, face: int) -> np.ndarray:
+    """(H, W, 3) the room's stored light without the person under the fit's light, as training forms
+    it (``train.imaging.form_parts``): the spot's direct light on ``face``, the flash's, or none
+    (projector off), plus the room's own light."""
+    from ..data.static import read_static
+    from .spot import scene_dir
+
+    key = {"spot": "direct", "flash": "flash_direct", "ambient": None}[cfg.light]
+    st = read_static(scene_dir(out), "ambient", *([key] if key else []))
+    if key is None:
+        return st["ambient"]
+    return (st[key][face] if cfg.light == "spot" else st[key]) + st["ambient"]
+
+
 def capture_record(out: Path, cfg: FitConfig, face: int) -> dict:
-    """The capture a user repeats: exposure per frame (average metering on the room lit by the spot),
-    burst length, the empty-room capture."""
+    """The capture a user repeats: exposure per frame (average metering on the room in the fit's
+    light: the spot, the flash, or the projector off), burst length, the empty-room capture."""
     import torch
 
     from ..render.sensor import auto_exposure
-    from .spot import scene_dir
-
-    from ..data.static import read_static
     from .train import capture_overrides
 
-    st = read_static(scene_dir(out), "direct", "ambient")
-    free = st["direct"][face] + st["ambient"]
+    free = person_free(out, cfg, face)
     sensor = SensorConfig.at(free.shape[:2], capture_overrides(out, cfg))
     t = auto_exposure(torch.as_tensor(free, dtype=torch.float32), sensor)
     return {"burst_frames": cfg.burst_frames, "exposure_s": t, "burst_s": t * cfg.burst_frames,
             "metering": sensor.metering, "target_mean_fraction": sensor.target_mean_fraction,
             "f_number": sensor.f_number, "bit_depth": sensor.bit_depth, "raw": True,
             "resolution": [int(free.shape[0]), int(free.shape[1])],
-            "background": "an empty-room burst with the same settings before the person enters; the network "
-                          "reads the photograph minus it",
+            "light": cfg.light,
+            "background": "an empty-room burst with the same settings and light before the person enters; the "
+                          "network reads the photograph minus it",
             "camera": "the APS-C mirrorless class of DESIGN section 6 (render.sensor.SensorConfig defaults, "
                       "with the room scene's sensor overrides)", "sensor": sensor.to_dict()}
 
@@ -74,8 +85,9 @@ def write_fit_report(out: Path, cfg: FitConfig, room: dict, spot: dict, result, 
     true_w, pred_w = region_to_world(hp["true_xy"], room), region_to_world(hp["pred_xy"], room)
     err_cm = 100 * np.linalg.norm(pred_w - true_w, axis=1)
     report = {
-        "spot": {k: spot.get(k) for k in ("face", "aim", "pan_deg", "tilt_deg", "azimuth_deg", "distance_m",
-                                            "landing")},
+        "spot": None if cfg.light != "spot" else {k: spot.get(k) for k in (
+            "face", "aim", "pan_deg", "tilt_deg", "azimuth_deg", "distance_m", "landing")},
+        "light": {"mode": cfg.light, **{k: spot[k] for k in ("explain", "capture", "not_rendered") if k in spot}},
         "heldout": {"people": int(len(err_cm)), "posture_accuracy": result.posture_accuracy / 100,
                     "posture3_accuracy": result.posture3_accuracy / 100, "error_cm": float(err_cm.mean()),
                     "median_error_cm": float(np.median(err_cm)), "mean_answer_cm": result.mean_answer_cm,
@@ -105,9 +117,10 @@ def _policy_blocks(sp: dict | None) -> list[Block]:
     """The spot each policy would pick and its SNR against the best candidate's."""
     if not sp:
         return []
-    rows = [[name, str(v["face"]), f"{v['snr_over_best']:.2f}"] for name, v in sp["policies"].items()]
+    rows = [[name, v.get("light", str(v["face"])), f"{v['snr_over_best']:.2f}"] for name, v in sp["policies"].items()]
     return [Block("p", "Each spot policy's pick in this room and its mean NLOS SNR over the best landed "
-                       "candidate's (the room's full-transport people): what it gives up before training."),
+                       "candidate's (the room's full-transport people): what it gives up before training; "
+                       "a fit without a spot: its light's SNR on the chosen row."),
             Block("table", header=["policy", "face", "SNR / best"], rows=rows)]
 
 
@@ -124,24 +137,43 @@ def _ceiling_blocks(c: dict | None, h: dict) -> list[Block]:
                          f"{c['position_crb_cm']:.1f} cm (bound on the RMS error, median person)"]])]
 
 
+def _aim_blocks(r: dict) -> list[Block]:
+    """Where to aim the projector, or (no spot) what lights the photographs and what the fit left out."""
+    s, light = r["spot"], r.get("light") or {"mode": "spot"}
+    if s is None:
+        left = [[k, v] for k, v in light.get("not_rendered", {}).items()]
+        return [Block("h2", "Light: no spot"), Block("p", light["explain"] + "."),
+                Block("p", "What this fit leaves out of its training photographs (a fit with a spot renders it):"),
+                Block("table", header=["step", "why"], rows=left),
+                Block("image", "The room (z up), the camera, the projector and the hidden region",
+                      image="figures/room.png")]
+    return [Block("h2", "Where to aim the projector"),
+            Block("table", header=["face", "aim point (m)", "pan (deg, + left)", "tilt (deg, + up)", "distance (m)"],
+                  rows=[[str(s["face"]), ", ".join(f"{v:+.2f}" for v in s["aim"]), f"{s['pan_deg']:+.1f}",
+                         f"{s['tilt_deg']:+.1f}", f"{s['distance_m']:.2f}"]]),
+            Block("image", "The room (z up), the camera, the projector's beam to the spot and the hidden region",
+                  image="figures/room.png")]
+
+
+LIT = {"spot": "the spot on", "flash": "the flash on", "ambient": "the projector off"}
+"""What the capture's metering sees, per light (``report.json``'s ``light``)."""
+
+
 def _blocks(r: dict) -> list[Block]:
-    h, s, c = r["heldout"], r["spot"], r["capture"]
+    h, c = r["heldout"], r["capture"]
     rm = r["room"]
     return [
         Block("h1", "Room model"),
         Block("p", f"Source: {r['config']['name']} preset, {r['training']['people']} synthetic people trained on, "
-                   f"spot policy {r['training']['policy']}; fitted in {r['timing_s']['total_s'] / 60:.1f} min."),
-        Block("h2", "Where to aim the projector"),
-        Block("table", header=["face", "aim point (m)", "pan (deg, + left)", "tilt (deg, + up)", "distance (m)"],
-              rows=[[str(s["face"]), ", ".join(f"{v:+.2f}" for v in s["aim"]), f"{s['pan_deg']:+.1f}",
-                     f"{s['tilt_deg']:+.1f}", f"{s['distance_m']:.2f}"]]),
-        Block("image", "The room (z up), the camera, the projector's beam to the spot and the hidden region",
-              image="figures/room.png"),
+                   f"method {r['training']['method']} (policy {r['training']['policy']}); fitted in "
+                   f"{r['timing_s']['total_s'] / 60:.1f} min."),
+        *_aim_blocks(r),
         *_policy_blocks(r.get("spot_policies")),
         Block("h2", "Capture"),
         Block("p", f"A burst of {c['burst_frames']} RAW frames of {1000 * c['exposure_s']:.0f} ms each "
                    f"({c['burst_s']:.1f} s) at f/{c['f_number']:g}, average metering at "
-                   f"{100 * c['target_mean_fraction']:.0f}% of full scale with the spot on; {c['background']}."),
+                   f"{100 * c['target_mean_fraction']:.0f}% of full scale with {LIT[c.get('light', 'spot')]}; "
+                   f"{c['background']}."),
         Block("h2", f"Held-out synthetic people ({h['people']})"),
         Block("table", header=["six-way posture", "upright / sitting / crouching", "mean error", "median error",
                                "mean-position answer"],

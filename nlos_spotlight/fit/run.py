@@ -10,6 +10,8 @@ Steps, each resumable (a rerun with ``--resume`` skips what is finished and cont
    The room's static light under that spot at sub-pixel resolution is rendered once
    (``ROOM_MODEL/layers.npz``, ``render.layers``): what camera motion and drift move. Then the
    light each person's body blocks under that spot (``ROOM_MODEL/shadow/``, ``fit/shadow.py``).
+   A method without a spot (``FitConfig.light``: the flash, the projector off) has none of these:
+   its record says what to photograph and what the fit leaves out (``spot.light_record``).
 4. **train**: the seen-rooms recipe (``evaluate.seen``) with the fit's capture (a burst of
    ``burst_frames``) and its capture variation (``capture_preset``), best weights kept as
    ``ROOM_MODEL/final.pt``.
@@ -210,7 +212,7 @@ def reuse_people(source: Path, out: Path, record: dict) -> None:
     out.mkdir(parents=True, exist_ok=True)
     shutil.copytree(source / "room", out / "room")
     shutil.copytree(source / "data", out / "data", copy_function=link)
-    if (source / "shadow").is_dir():
+    if (source / "shadow").is_dir() and record["settings"].get("shadow_samples"):  # no spot: no shadow to keep
         shutil.copytree(source / "shadow", out / "shadow", copy_function=link)
     shutil.copy2(source / "room.json", out / "room.json")
     _atomic_json(out / "fit.json", record)
@@ -310,17 +312,11 @@ def _fit_steps(room: str, out: Path, cfg: FitConfig, flags: dict, record: dict, 
             if isinstance(exc, NlosError):
                 raise NlosError(f"{exc} (nothing was kept in {out})") from None
         raise
-    console.rule("3/5 spot")
-    from .spot import policy_face, spot_policies, spot_record
-    from .train import room_layers, room_split, train_room
+    console.rule("3/5 spot" if cfg.light == "spot" else f"3/5 light: {cfg.light}, no spot")
+    from .train import room_split, train_room
 
     split = room_split(out, cfg, ["normals"])
-    spot = spot_record(out, extra[0] if extra else policy_face(cfg, split))
-    console.print(spot["explain"])
-    spot["policies"] = spot_policies(out, cfg, split, spot["face"])
-    console.print("spot SNR over the best candidate's: " + ", ".join(
-        f"{k} {v['snr_over_best']:.2f}" for k, v in spot["policies"]["policies"].items()))
-    layers = room_layers(out, spot["aim"])  # the static light the capture variation moves
+    spot, layers = _spot_step(out, cfg, split, extra)
     clock.lap("spot_s")
     if cfg.shadow_samples > 0:  # the light each body blocks, under the chosen spot
         from .shadow import render_shadows
@@ -348,6 +344,30 @@ def _fit_steps(room: str, out: Path, cfg: FitConfig, flags: dict, record: dict, 
                   f"{report['timing_s']['total_s'] / 60:.1f} min before the report; room model: {out.resolve()} "
                   "(final.pt, report.json, report.html)")
     return report
+
+
+def _spot_step(out: Path, cfg: FitConfig, split, extra: list[int]) -> tuple[dict, object]:
+    """Step 3 before the shadow: (the spot's record, the room's static layers under it); without a
+    spot (``cfg.light``) the light's record (``spot.light_record``) and no layers, saying what the
+    fit leaves out."""
+    from ..console import console
+    from .spot import light_record, policy_face, spot_policies, spot_record
+    from .train import room_layers
+
+    if cfg.light == "spot":
+        spot = spot_record(out, extra[0] if extra else policy_face(cfg, split))
+    else:
+        spot = light_record(cfg)
+    console.print(spot["explain"])
+    for step, why in spot.get("not_rendered", {}).items():
+        console.print(f"left out: {step}: {why}")
+    spot["policies"] = spot_policies(out, cfg, split, spot["face"])
+    console.print("spot SNR over the best candidate's: " + ", ".join(
+        f"{k}{' (' + v['light'] + ')' if 'light' in v else ''} {v['snr_over_best']:.2f}"
+        for k, v in spot["policies"]["policies"].items()))
+    if cfg.light != "spot":
+        return spot, None
+    return spot, room_layers(out, spot["aim"])  # the static light the capture variation moves
 
 
 def _has_people(out: Path) -> bool:

@@ -83,13 +83,16 @@ def spot_policies(out: Path, cfg, split, chosen: int) -> dict:
     """``report.json``'s ``spot_policies``: for each of :data:`REPORTED_POLICIES` (and the chosen
     spot) the face it picks in this room and that face's mean NLOS SNR over the best landed
     candidate's (``lighting.snr``, the room's full-transport people): what each policy would give
-    up against the physics search, before any training."""
+    up against the physics search, before any training. A fit without a spot (``cfg.light``
+    'flash' or 'ambient', ``chosen`` -1): the chosen row is that light's SNR over the best spot's
+    (``lighting.snr.scene_snr``: the flash's, or the person's own room light with the projector off)."""
     import dataclasses
 
     from ..lighting.oracle import by_snr
-    from ..lighting.snr import candidate_snr
+    from ..lighting.snr import scene_snr
 
-    snr = np.asarray(candidate_snr(scene_dir(out)), np.float64)
+    got = scene_snr(scene_dir(out))
+    snr = np.asarray(got.candidates, np.float64)
     landed = split.pool.landed.cpu().numpy().astype(bool)
     best = float(snr[landed].max()) if landed.any() else float("nan")
     rows = {}
@@ -97,8 +100,39 @@ def spot_policies(out: Path, cfg, split, chosen: int) -> dict:
         face = by_snr(snr, landed)[0] if name == "oracle" else policy_face(
             dataclasses.replace(cfg, policy=name, checkpoint="", method="ours"), split)
         rows[name] = {"face": face, "snr_over_best": float(snr[face] / best) if face >= 0 else 0.0}
-    rows["chosen"] = {"face": int(chosen), "snr_over_best": float(snr[chosen] / best)}
+    if cfg.light == "spot":
+        rows["chosen"] = {"face": int(chosen), "snr_over_best": float(snr[chosen] / best)}
+    else:
+        light = got.flash if cfg.light == "flash" else got.ambient
+        if light is None:
+            raise NlosError(f"{scene_dir(out)}: the room's people were rendered without the flash; fit it again")
+        rows["chosen"] = {"face": -1, "light": cfg.light, "snr_over_best": float(light / best)}
     return {"best_snr": best, "policies": rows}
+
+
+def light_record(cfg) -> dict:
+    """``report.json``'s ``light`` for a fit without a spot (``cfg.light`` 'flash' or 'ambient'):
+    what lights the photographs, what to capture, and which of the fit's spot terms it leaves out
+    (:func:`unrendered`); ``face`` -1, as the trainer reports a light that is no spot."""
+    capture = {"flash": "a flash at the camera lighting its whole view (Tancik et al.; modelled at the camera's "
+                        "centre of projection with the projector spot's total flux, data/flash.py), in the person's "
+                        "photographs and the empty-room photograph alike; no projector spot",
+               "ambient": "the projector off: the room's own light only, in the person's photographs and the "
+                          "empty-room photograph alike"}[cfg.light]
+    return {"mode": cfg.light, "face": -1, "explain": f"light: no spot to aim; photograph with {capture}",
+            "capture": capture, "not_rendered": unrendered(cfg)}
+
+
+def unrendered(cfg) -> dict[str, str]:
+    """The fit's spot terms a fit without a spot leaves out, each with why (report and console)."""
+    light = {"flash": "the flash", "ambient": "the room's own light"}[cfg.light]
+    return {"spot": "no spot to choose or aim: the method lights none",
+            "layers": "the room's static layers under the spot are not rendered: no capture drift (capture_preset "
+                      "'ideal'), which render.variation models for the spot's light only",
+            "shadow": f"the light the body blocks (nlos_shadow) is rendered under a spot only: photographs without "
+                      f"{light} the body blocks on its way to and from the room (shadow_samples 0)",
+            "bounce": f"the body's light over one more bounce (nlos_bounce) is rendered under a spot only: not in "
+                      "these photographs (bounce off)"}
 
 
 def policy_face(cfg, split) -> int:

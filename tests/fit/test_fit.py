@@ -8,6 +8,7 @@ import json
 
 import numpy as np
 import pytest
+import torch
 
 from nlos_spotlight.cli import main
 from nlos_spotlight.fit.config import PRESETS, FitConfig
@@ -598,6 +599,8 @@ def test_a_second_fit_into_the_same_out_is_refused(room_dir, tmp_path, capsys):
     (lambda r: r["capture"].update(burst_frames=0), "burst_frames"),
     (lambda r: r["capture"].update(exposure_s=-1), "exposure_s"),
     (lambda r: r["room"]["hidden_region"].update(max=r["room"]["hidden_region"]["min"]), "not a box"),
+    (lambda r: r.update(light={"mode": "flash"}), "aims no spot"),
+    (lambda r: r.update(light={"mode": "strobe"}), "light must be"),
 ])
 def test_a_hand_edited_report_is_refused(fitted, tmp_path, edit, words):
     """``report.json`` is validated when a room model is loaded (issue 36, item 15); the fit's own loads."""
@@ -702,8 +705,8 @@ def test_bounce_is_stored_and_trained_on(fitted, room_dir, tmp_path):
 def test_method_fits_a_baseline_on_the_same_people(fitted, room_dir, tmp_path):
     """``--method chandran``: Adaptive Lighting's spot and Chandran's CNN fitted on the same rendered
     people (``--people-from``: fixed policies' spots are stored for every person); its checkpoint is
-    that network, its report names it; a method that lights no spot, or a policy against the
-    method's, is refused in one line."""
+    that network, its report names it; a policy against the method's, or a method that lights no
+    spot with the spot's shadow, is refused in one line."""
     from nlos_spotlight.errors import NlosError
     from nlos_spotlight.evaluate.methods import BY_NAME
     from nlos_spotlight.train.checkpoint import load_trained
@@ -721,3 +724,133 @@ def test_method_fits_a_baseline_on_the_same_people(fitted, room_dir, tmp_path):
                 dict(method="ours_task_only")):
         with pytest.raises(NlosError, match="--method"):
             dataclasses.replace(TINY, **bad)
+
+
+NO_SPOT = dict(shadow_samples=0, capture_preset="ideal")
+"""TINY's settings without a spot term (``fit.config.UNAIMED_DEFAULTS``)."""
+
+
+@pytest.mark.parametrize("method,light", [("tancik", "flash"), ("dlnlos", "ambient")])
+def test_method_without_a_spot_fits_under_its_light(fitted, room_dir, tmp_path, capsys, method, light):
+    """``--method tancik`` (the flash) and ``dlnlos`` (projector off) on the same rendered people
+    (``--people-from``): the network trains on the light the dataset stores for it, read here from
+    the files (the flash's or the room's own person-free light and the person's ``flash_nlos`` /
+    ``nlos_ambient``); the held-out empty-room photograph is that light to the noise, not the spot's;
+    no spot, shadow or layers, the report says what it left out, the SNR and the ceiling are that
+    light's; ``nlos predict`` says what to photograph and reads the model back as it was scored."""
+    from nlos_spotlight.data.store import f16_decode
+    from nlos_spotlight.fit.train import fit_train_config, room_split
+    from nlos_spotlight.lighting.snr import scene_snr
+    from nlos_spotlight.train.checkpoint import load_trained
+    from nlos_spotlight.train.imaging import capture
+    from nlos_spotlight.train.loop import Trainer
+
+    src, spot_report = fitted
+    out = tmp_path / method
+    cfg = dataclasses.replace(TINY, method=method, policy=light, **NO_SPOT)
+    report = fit_room(str(room_dir), out, cfg, {}, progress=False, people_from=src)
+    a, b = (sorted((d / "data").rglob("images/*.npz"))[0] for d in (src, out))
+    assert a.stat().st_ino == b.stat().st_ino  # the spot fit's people, nothing rendered again
+    assert report["spot"] is None and report["light"]["mode"] == light
+    assert set(report["light"]["not_rendered"]) == {"spot", "layers", "shadow", "bounce"}
+    assert not (out / "layers.npz").exists() and not (out / "shadow").exists()
+    assert report["training"]["method"] == method and method in report["training"]["network"]
+    models = load_trained(out)
+    assert (models.config.policy, models.config.arch) == (light, method) and models.net.nuisance is None
+    scene = next((out / "data" / "scenes").iterdir())
+    with np.load(scene / "static.npz") as z:  # the files, not the loader
+        free = z["ambient"] + (z["flash_direct"] if light == "flash" else 0)
+        spot_free = z["direct"][spot_report["spot"]["face"]] + z["ambient"]
+    # training: the fit's trainer lights the room with that light, and its noise-free photographs
+    # are the stored components summed
+    split = room_split(out, cfg, ["normals"])
+    tr = Trainer(fit_train_config(cfg, out), [split.pool], tmp_path / "tr")
+    (y, mode, _), = tr.illuminations(tr.scenes, train=True)
+    assert mode == light and y is None
+    idx = torch.arange(3)
+    ph = capture(tr.scenes[0].to("cpu"), idx, y, mode, tr.sensor, None, False, tr.cfg.net)
+    first = cfg.transport_people  # pool people 0..2 are the first image samples (split_room's period)
+    for j in idx.tolist():
+        with np.load(scene / "images" / f"{first + j:05d}.npz") as z:
+            person = f16_decode(z, "nlos_ambient") + (f16_decode(z, "flash_nlos") if light == "flash" else 0)
+        np.testing.assert_allclose(ph.images[j].numpy(), free + person, rtol=1e-5, atol=1e-9)
+        np.testing.assert_allclose(ph.background[j].numpy(), free, rtol=1e-6)
+    # scoring: the held-out empty-room photographs (noisy, a burst; the flash clips a few pixels)
+    # are that light to 1% in nearly every pixel, and wherever the spot's differs, that light's
+    bg = np.load(out / "train" / "heldout.npz")["photo_background"]
+    bg = bg[~np.isnan(bg[:, 0, 0, 0])]
+    near = lambda ref: np.abs(bg / ref - 1) < 0.01
+    differ = np.abs(spot_free / free - 1) > 0.1
+    assert near(free).mean() > 0.95 and differ.sum() >= 10
+    assert near(free)[:, differ].mean() > 0.95 and near(spot_free)[:, differ].mean() < 0.05
+    # the chosen row is that light's SNR over the best spot's
+    snr = scene_snr(next((src / "data" / "scenes").iterdir()))
+    sp = report["spot_policies"]
+    assert sp["policies"]["chosen"]["light"] == light and sp["policies"]["chosen"]["face"] == -1
+    assert sp["policies"]["chosen"]["snr_over_best"] == pytest.approx(
+        (snr.flash if light == "flash" else snr.ambient) / sp["best_snr"])
+    assert sp["policies"]["oracle"] == spot_report["spot_policies"]["policies"]["oracle"]
+    c = report["ceiling"]
+    assert c["people"] == TINY.ceiling_people and 0 <= c["posture_accuracy"] <= 1 and c["position_crb_cm"] > 0
+    stored = json.loads((out / "ceiling.json").read_text())
+    assert stored["key"]["light"] == light
+    _ceiling_renders_the_stored_light(out, cfg, scene, light, stored["indices"][0])
+    html = (out / "report.html").read_text()
+    assert "Light: no spot" in html and "Where to aim the projector" not in html
+    again = fit_room(str(room_dir), out, cfg, {}, resume=True, progress=False)
+    assert again["heldout"] == report["heldout"] and again["ceiling"] == report["ceiling"]
+    # predict: what to photograph, no aim; the evaluation's answer for a held-out person's photograph
+    hp = np.load(out / "train" / "heldout.npz")
+    k = int(np.flatnonzero(~np.isnan(hp["photo_image"][:, 0, 0, 0]))[0])
+    np.save(tmp_path / "one.npy", hp["photo_image"][k][None])
+    np.save(tmp_path / "empty.npy", hp["photo_background"][k])
+    capsys.readouterr()
+    assert main(["predict", str(out), str(tmp_path / "one.npy"), "--background", str(tmp_path / "empty.npy"),
+                 "--burst", "1", "--json", str(tmp_path / "p.json")]) == 0
+    said = " ".join(capsys.readouterr().out.split())
+    assert {"flash": "flash photographs", "ambient": "projector-off photographs"}[light] in said
+    assert "pan" not in said and "spot on face" not in said
+    frame = json.loads((tmp_path / "p.json").read_text())["frames"][0]
+    person = int(np.flatnonzero(np.all(hp["true_xy"] == hp["photo_xy"][k], axis=1))[0])
+    assert [frame["x_m"], frame["y_m"]] == pytest.approx(hp["pred_xy"][person].tolist(), abs=1e-4)
+
+
+def _ceiling_renders_the_stored_light(out, cfg, scene, light: str, i: int) -> None:
+    """The ceiling's renderer of a light without a spot gives held-out person ``i``'s light as the
+    dataset stored it (``flash_nlos`` + ``nlos_ambient``, or ``nlos_ambient``; float16 with a scale)."""
+    from nlos_spotlight.data.store import f16_decode
+    from nlos_spotlight.fit.ceiling import light_renderer, person_light
+    from nlos_spotlight.fit.run import room_builder
+
+    builder, dcfg = room_builder(out, cfg)
+    room, specs = builder._scan_people()
+    r, y = light_renderer(room, dcfg.render_settings(), light, {})
+    t = np.array([*specs[i]["position"], room.hidden_region.floor_z])
+    got = person_light(r, y, specs[i]["params"], t, dcfg).numpy()
+    with np.load(scene / "images" / f"{i:05d}.npz") as z:
+        stored = f16_decode(z, "nlos_ambient") + (f16_decode(z, "flash_nlos") if light == "flash" else 0)
+    scale = np.abs(stored).max()
+    assert scale > 0
+    np.testing.assert_allclose(got.reshape(stored.shape) / scale, stored / scale, atol=2e-3)
+
+
+def test_a_method_without_a_spot_refuses_the_spots_terms(room_dir, tmp_path, capsys, monkeypatch):
+    """``nlos fit --method tancik|dlnlos`` sets the settings without a spot term where nothing says
+    otherwise, and refuses one that renders a spot's term (bounce, shadow, drawn worlds, drift) in
+    one line naming it, leaving nothing; the policy of a light without a spot goes with its method."""
+    import nlos_spotlight.fit.run as run
+
+    got = {}
+    monkeypatch.setattr(run, "fit_room", lambda room, out, cfg, *a, **k: got.setdefault("cfg", cfg))
+    assert main(["fit", str(room_dir), "--out", str(tmp_path / "ok"), "--preset", "tiny", "--method", "dlnlos"]) == 0
+    assert (got["cfg"].policy, got["cfg"].shadow_samples, got["cfg"].capture_preset) == ("ambient", 0, "ideal")
+    monkeypatch.undo()
+    q = ["--preset", "tiny", "--quiet"]
+    for flags, words in ((["--method", "dlnlos", "--bounce", "on"], ("--bounce on", "--method dlnlos lights no spot")),
+                         (["--method", "tancik", "--shadow-samples", "64"], ("--shadow-samples 64", "flash")),
+                         (["--method", "tancik", "--world-variation", "tripod"], ("--world-variation tripod",)),
+                         (["--method", "dlnlos", "--capture-preset", "tripod"], ("--capture-preset tripod",)),
+                         (["--policy", "flash"], ("--policy", "--method tancik")),
+                         (["--method", "tancik", "--policy", "oracle"], ("--method tancik lights no spot",))):
+        _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "bad")] + flags + q, *words)
+        assert not (tmp_path / "bad").exists()
