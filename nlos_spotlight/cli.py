@@ -257,7 +257,8 @@ def cmd_fit(args: argparse.Namespace) -> None:
         changes["footprint_jitter"] = args.footprint_sampling == "jittered"
     if args.method is not None:
         changes["method"] = args.method
-        changes.update(_method_defaults(args.method, given | set(changes), args.policy is None))
+        changes.update(_method_defaults(args.method, given | set(changes) | ({"bounce"} if args.bounce else set()),
+                                        args.policy is None))
     if args.bounce is not None:
         changes["bounce"] = args.bounce == "on"
     if "burst" in changes:
@@ -292,7 +293,7 @@ def _config_file(args: argparse.Namespace, base):
             setattr(args, k, rc[k])
     fit = rc["fit"]
     if args.method is None and isinstance(fit.get("method"), str):
-        flags = {k for k in ("policy", "shadow_samples", "capture_preset") if getattr(args, k) is not None}
+        flags = {k for k in ("policy", "shadow_samples", "bounce", "capture_preset") if getattr(args, k) is not None}
         fit = {**_method_defaults(fit["method"], set(fit) | flags, "policy" not in set(fit) | flags), **fit}
     return apply_fields(base, fit, args.config, "fit."), set(rc["fit"])
 
@@ -533,7 +534,7 @@ def build_parser() -> argparse.ArgumentParser:
                                     "and ResNet-18), al_resnet, center_resnet, random_resnet, oracle_resnet, chandran "
                                     "(Adaptive Lighting's spot and Chandran's CNN), ien_cnn; without a spot: tancik "
                                     "(the flash, Tancik et al.'s CNN), dlnlos (projector off, DL-NLOS's CNN), which "
-                                    "render no shadow, bounce or drift (--shadow-samples 0, --capture-preset ideal)")
+                                    "render no shadow, bounce or drift (--shadow-samples 0, --bounce off, --capture-preset ideal)")
     f.add_argument("--checkpoint", help="trained run whose IEN picks the spot (--policy ien)")
     f.add_argument("--burst", type=int, help="frames averaged per capture (default 16)")
     f.add_argument("--workers", type=int, help="processes rendering people (default 2)")

@@ -231,7 +231,7 @@ LIGHT_WORDS = {"flash": "the flash at the camera lighting its whole view", "ambi
 """A light without a spot in words (``FitConfig.light``)."""
 UNAIMED_METHODS = {"flash": "tancik", "ambient": "dlnlos"}
 """The method ``nlos fit`` fits under each light without a spot."""
-UNAIMED_DEFAULTS = {"shadow_samples": 0, "capture_preset": "ideal"}
+UNAIMED_DEFAULTS = {"shadow_samples": 0, "bounce": False, "capture_preset": "ideal"}
 """What ``nlos fit --method tancik|dlnlos`` sets where no flag or config file says: the settings
 without a spot term (``FitConfig._check_light`` refuses any other value)."""
 

@@ -726,7 +726,7 @@ def test_method_fits_a_baseline_on_the_same_people(fitted, room_dir, tmp_path):
             dataclasses.replace(TINY, **bad)
 
 
-NO_SPOT = dict(shadow_samples=0, capture_preset="ideal")
+NO_SPOT = dict(shadow_samples=0, bounce=False, capture_preset="ideal")
 """TINY's settings without a spot term (``fit.config.UNAIMED_DEFAULTS``)."""
 
 
