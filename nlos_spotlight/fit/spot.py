@@ -131,7 +131,7 @@ def unrendered(cfg) -> dict[str, str]:
                       "'ideal'), which render.variation models for the spot's light only",
             "shadow": f"the light the body blocks (nlos_shadow) is rendered under a spot only: photographs without "
                       f"{light} the body blocks on its way to and from the room (shadow_samples 0)",
-            "bounce": f"the body's light over one more bounce (nlos_bounce) is rendered under a spot only: not in "
+            "bounce": "the body's light over one more bounce (nlos_bounce) is rendered under a spot only: not in "
                       "these photographs (bounce off)"}
 
 
