@@ -13,7 +13,6 @@ relay draws (other relay offsets) over sqrt(2), the error one draw carries.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -30,16 +29,15 @@ def main() -> None:
     args = ap.parse_args()
     import torch
 
-    from nlos_spotlight.fit.config import FitConfig
-    from nlos_spotlight.fit.run import room_builder
+    from nlos_spotlight.errors import NlosError
+    from nlos_spotlight.fit.run import finished_model
     from nlos_spotlight.fit.train import heldout_indices
 
     torch.set_num_threads(1)  # as a shadow worker renders
-    if not (args.model / "report.json").exists():
-        sys.exit(f"--model: {args.model} is not a finished room model (no report.json)")
-    cfg = FitConfig.from_record(json.loads((args.model / "fit.json").read_text())["settings"])
-    aim = np.asarray(json.loads((args.model / "report.json").read_text())["spot"]["aim"])
-    builder, dcfg = room_builder(args.model, cfg)
+    try:
+        cfg, aim, builder, dcfg = finished_model(args.model)
+    except NlosError as exc:
+        sys.exit(f"--model: {exc}")
     idx = heldout_indices(args.model, cfg)[:args.people]
     counts = [int(n) for n in args.samples.split(",")]
     comps = ("nlos_shadow", "nlos_bounce")

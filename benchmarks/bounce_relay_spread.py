@@ -10,7 +10,6 @@ their sums and the brightest pixel over the median one; and the floor's share of
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -25,15 +24,14 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
     import nlos_spotlight.render.bounce as bounce
-    from nlos_spotlight.fit.config import FitConfig
-    from nlos_spotlight.fit.run import room_builder
+    from nlos_spotlight.errors import NlosError
+    from nlos_spotlight.fit.run import finished_model
     from nlos_spotlight.fit.train import heldout_indices
 
-    if not (args.model / "report.json").exists():
-        sys.exit(f"--model: {args.model} is not a finished room model (no report.json)")
-    cfg = FitConfig.from_record(json.loads((args.model / "fit.json").read_text())["settings"])
-    aim = np.asarray(json.loads((args.model / "report.json").read_text())["spot"]["aim"])
-    builder, dcfg = room_builder(args.model, cfg)
+    try:
+        cfg, aim, builder, dcfg = finished_model(args.model)
+    except NlosError as exc:
+        sys.exit(f"--model: {exc}")
     idx = heldout_indices(args.model, cfg)[:args.people]
     floor = bounce.NEAR_FIELD
     lines = [f"# python benchmarks/bounce_relay_spread.py --model {args.model} --people {len(idx)}",

@@ -69,6 +69,23 @@ def room_builder(out: Path, cfg: FitConfig):
     return SceneBuilder(dcfg, plan(dcfg)[0], out / "data"), dcfg
 
 
+def finished_model(out: Path):
+    """(``FitConfig``, the spot's aim (3,), ``SceneBuilder``, ``DatasetConfig``) of a finished room
+    model that aims a spot (studies that render its people again), or a one-line ``NlosError``."""
+    import numpy as np
+
+    out = Path(out)
+    try:
+        report = json.loads((out / "report.json").read_text())
+        cfg = FitConfig.from_record(json.loads((out / "fit.json").read_text())["settings"])
+    except (OSError, ValueError, KeyError, TypeError):
+        raise NlosError(f"{out}: not a finished room model (no readable report.json and fit.json)") from None
+    if not isinstance(report.get("spot"), dict):
+        raise NlosError(f"{out}: the room model aims no spot (--method {cfg.method})")
+    builder, dcfg = room_builder(out, cfg)
+    return cfg, np.asarray(report["spot"]["aim"], np.float64), builder, dcfg
+
+
 def die_with_parent() -> None:
     """This process ends when the fit that started it does (Linux: the parent-death signal; elsewhere
     the callers notice a dead parent themselves)."""
@@ -437,4 +454,4 @@ def _ien_spot(cfg: FitConfig, room_dir: Path) -> list[int]:
     return [ien_face(models, scene, los)]
 
 
-__all__ = ["FORMAT", "dataset_config", "fit_room", "render_people", "reuse_people", "room_builder"]
+__all__ = ["FORMAT", "dataset_config", "finished_model", "fit_room", "render_people", "reuse_people", "room_builder"]

@@ -854,3 +854,17 @@ def test_a_method_without_a_spot_refuses_the_spots_terms(room_dir, tmp_path, cap
                          (["--method", "tancik", "--policy", "oracle"], ("--method tancik lights no spot",))):
         _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "bad")] + flags + q, *words)
         assert not (tmp_path / "bad").exists()
+
+
+def test_finished_model_reads_the_fit_or_says_why_not(fitted, tmp_path):
+    """``finished_model``: a finished room model's config, the report's aim and its people's builder
+    (a person rendered again by it is the dataset's); a folder that is not one is one line."""
+    from nlos_spotlight.errors import NlosError
+    from nlos_spotlight.fit.run import finished_model
+
+    out, report = fitted
+    cfg, aim, builder, dcfg = finished_model(out)
+    assert cfg == TINY and np.allclose(aim, report["spot"]["aim"])
+    assert builder.cfg.room == str((out / "room").resolve())
+    with pytest.raises(NlosError, match="not a finished room model"):
+        finished_model(tmp_path)
