@@ -26,15 +26,8 @@ import numpy as np
 import torch
 
 
-def builder_of(model: Path):
-    from nlos_spotlight.fit.config import FitConfig
-    from nlos_spotlight.fit.run import room_builder
-
-    cfg = FitConfig.from_record(json.loads((model / "fit.json").read_text())["settings"])
-    return (*room_builder(model, cfg), cfg)
-
-
 def main(argv=None) -> int:
+    from nlos_spotlight.fit.run import finished_model
     from nlos_spotlight.render.settings import RenderSettings
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -43,8 +36,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", required=True, type=Path, help="CSV to write")
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
-    builder, dcfg, cfg = builder_of(args.model)
-    aim = np.asarray(json.loads((args.model / "report.json").read_text())["spot"]["aim"], np.float64)
+    cfg, aim, builder, dcfg = finished_model(args.model)
     idx = list(range(cfg.transport_people, cfg.transport_people + args.people))
     base = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=1, spot_samples=dcfg.spot_samples,
                           person_samples=dcfg.person_samples, device="cpu")

@@ -816,8 +816,9 @@ def main(argv=None) -> int:
             name, reading = head.split(":", 1)
         except ValueError:
             raise NlosError(f"--model: expected ROOM:READING=DIR, got {spec!r}") from None
-        if not (Path(path) / "report.json").exists():
-            raise NlosError(f"--model: {path} is not a finished room model (no report.json)")
+        from nlos_spotlight.fit.run import finished_model
+
+        finished_model(path)  # one line when not a finished room model that aims a spot
         room = load_room(name, reading, Path(path), args.people)
         people = None
         if not (args.no_render or args.world_only):

@@ -38,8 +38,7 @@ def draws(builder, base, aim: np.ndarray, people: list[int], footprint: int, rel
 
 
 def main(argv=None) -> int:
-    from nlos_spotlight.fit.config import FitConfig
-    from nlos_spotlight.fit.run import room_builder
+    from nlos_spotlight.fit.run import finished_model
     from nlos_spotlight.render.settings import RenderSettings
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -48,9 +47,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", required=True, type=Path, help="CSV to write")
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
-    cfg = FitConfig.from_record(json.loads((args.model / "fit.json").read_text())["settings"])
-    builder, dcfg = room_builder(args.model, cfg)
-    aim = np.asarray(json.loads((args.model / "report.json").read_text())["spot"]["aim"], np.float64)
+    cfg, aim, builder, dcfg = finished_model(args.model)
     people = [int(p) for p in args.people.split(",")]
     base = RenderSettings(pixel_samples=dcfg.pixel_samples, spot_samples=dcfg.spot_samples,
                           person_samples=dcfg.person_samples, device="cpu")
