@@ -240,62 +240,68 @@ def cmd_spotlight(args: argparse.Namespace) -> None:
 
 
 def cmd_fit(args: argparse.Namespace) -> None:
+    from .config_file import apply_fields
     from .fit.config import PRESETS
     from .fit.run import fit_room
 
     if args.preset not in PRESETS:
         raise NlosError(f"--preset: expected one of {', '.join(PRESETS)}, got {args.preset!r}")
-    base, given = _config_file(args, PRESETS[args.preset]) if args.config else (PRESETS[args.preset], set())
+    base = PRESETS[args.preset]
+    given = _config_file(args) if args.config else {}  # the file's fit settings; flags win over them
     if args.room is None:
         raise NlosError("fit: give the room (a scan or scene directory) or --config ROOM.yaml with a room")
-    changes = {k: getattr(args, k) for k in ("people", "policy", "seed", "burst", "workers", "capture_preset",
-                                             "pixel_footprint", "shadow_samples", "shadow_relay", "bounce_scale", "bounce_body_samples",
-                                             "clothing",
-                                             "world_variation", "ceiling_people", "render_device")
-               if getattr(args, k) is not None}
-    if args.footprint_sampling is not None:
-        changes["footprint_jitter"] = args.footprint_sampling == "jittered"
-    if args.method is not None:
-        changes["method"] = args.method
-        changes.update(_method_defaults(args.method, given | set(changes) | ({"bounce"} if args.bounce else set()),
-                                        args.policy is None))
-    if args.bounce is not None:
-        changes["bounce"] = args.bounce == "on"
-    if "burst" in changes:
-        changes["burst_frames"] = changes.pop("burst")
-    if args.no_projection:
-        changes["project_nuisance"] = False
-    if args.checkpoint:
-        changes["checkpoint"] = args.checkpoint
-    cfg = dataclasses.replace(base, **changes)
-    if args.bounce_scale is not None and not cfg.bounce:
-        raise NlosError(f"--bounce-scale {args.bounce_scale:g} scales the bounce, which --bounce off leaves out")
-    flags = {k: getattr(args, k) for k in ("camera_position", "camera_look_at", "projector_position")
-             if getattr(args, k) is not None}
-    flags = {k: _point(v, "--" + k.replace("_", "-")).tolist() for k, v in flags.items()}
+    flags = _fit_flags(args)
+    settings = {**given, **flags}
+    if isinstance(settings.get("method"), str):
+        settings = {**_method_defaults(settings["method"], set(settings), "policy" not in settings), **settings}
+    if settings.get("shadow_samples") == 0 and "bounce" not in settings:
+        settings["bounce"] = False  # the bounce goes through the shadow's relay points: none, no bounce
+    bounce = settings.get("bounce", base.bounce)
+    for k in ("bounce_scale", "bounce_body_samples"):
+        if k in flags and not bounce:
+            raise NlosError(f"--{k.replace('_', '-')} {flags[k]:g} sets the bounce, which this fit leaves out "
+                            f"(--bounce off{', or a method without a spot' if settings.get('method') not in (None, 'ours') else ''})")
+    cfg = apply_fields(base, settings, args.config or "nlos fit", "fit." if args.config else "")
+    places = {k: getattr(args, k) for k in ("camera_position", "camera_look_at", "projector_position")
+              if getattr(args, k) is not None}
+    places = {k: _point(v, "--" + k.replace("_", "-")).tolist() for k, v in places.items()}
     if args.hidden_region is not None:
-        flags["hidden_region"] = args.hidden_region
+        places["hidden_region"] = args.hidden_region
     if args.up is not None:
-        flags["up"] = args.up
-    fit_room(args.room, output_dir(args.out, "--out"), cfg, flags, resume=args.resume, progress=not args.quiet,
+        places["up"] = args.up
+    fit_room(args.room, output_dir(args.out, "--out"), cfg, places, resume=args.resume, progress=not args.quiet,
              people_from=Path(args.people_from) if args.people_from else None)
 
 
-def _config_file(args: argparse.Namespace, base):
-    """(``base`` with the room config's fit settings, the names it sets); its room setup goes into
-    ``args`` unless a flag says otherwise. Its method (unless ``--method`` replaces it) brings the
-    settings it implies where neither the file nor a flag sets them (:func:`_method_defaults`)."""
-    from .config_file import apply_fields, load_room_config
+def _fit_flags(args: argparse.Namespace) -> dict:
+    """The ``FitConfig`` fields the command line gives (those not given are absent)."""
+    out = {k: getattr(args, k) for k in ("people", "policy", "seed", "workers", "capture_preset", "pixel_footprint",
+                                         "shadow_samples", "shadow_relay", "bounce_scale", "bounce_body_samples",
+                                         "clothing", "world_variation", "ceiling_people", "render_device", "method")
+           if getattr(args, k) is not None}
+    if args.burst is not None:
+        out["burst_frames"] = args.burst
+    if args.footprint_sampling is not None:
+        out["footprint_jitter"] = args.footprint_sampling == "jittered"
+    if args.bounce is not None:
+        out["bounce"] = args.bounce == "on"
+    if args.no_projection:
+        out["project_nuisance"] = False
+    if args.checkpoint:
+        out["checkpoint"] = args.checkpoint
+    return out
+
+
+def _config_file(args: argparse.Namespace) -> dict:
+    """The room config's fit settings (checked when applied with the flags); its room setup goes
+    into ``args`` unless a flag says otherwise."""
+    from .config_file import load_room_config
 
     rc = load_room_config(args.config)
     for k in ("room", "camera_position", "camera_look_at", "projector_position", "hidden_region", "up"):
         if k in rc and getattr(args, k) is None:
             setattr(args, k, rc[k])
-    fit = rc["fit"]
-    if args.method is None and isinstance(fit.get("method"), str):
-        flags = {k for k in ("policy", "shadow_samples", "bounce", "capture_preset") if getattr(args, k) is not None}
-        fit = {**_method_defaults(fit["method"], set(fit) | flags, "policy" not in set(fit) | flags), **fit}
-    return apply_fields(base, fit, args.config, "fit."), set(rc["fit"])
+    return dict(rc["fit"])
 
 
 def _method_defaults(method: str, given: set[str], policy_free: bool) -> dict:

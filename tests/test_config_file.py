@@ -85,7 +85,19 @@ def test_fit_config_file_is_the_flags(tmp_path, monkeypatch, capsys):
     capsys.readouterr()
     assert main(["fit", "--config", str(tmp_path / "cfg" / "room.yaml"), "--out", str(tmp_path / "e"),
                  "--preset", "tiny", "--quiet", "--bounce", "off", "--bounce-scale", "2"]) == 2
-    assert "which --bounce off leaves out" in capsys.readouterr().err
+    assert "which this fit leaves out (--bounce off)" in capsys.readouterr().err
+    assert main(["fit", "--config", str(tmp_path / "cfg" / "room.yaml"), "--out", str(tmp_path / "g"),
+                 "--preset", "tiny", "--quiet", "--shadow-samples", "0"]) == 0
+    assert not seen[-1][1].bounce  # no relay points, no bounce
+    (tmp_path / "cfg" / "flash.yaml").write_text(  # the file's method and the flags checked together
+        "room: ../scans/room.ply\ncamera_position: [0.35, -0.3, 0.09]\ncamera_look_at: [0.9, -2, -0.3]\n"
+        "hidden_region: [-1, 0, 1, 2]\nup: z\nfit: {method: tancik}\n")
+    for extra in ([], ["--bounce", "off"], ["--shadow-samples", "0"], ["--policy", "flash"], ["--capture-preset", "ideal"]):
+        assert main(["fit", "--config", str(tmp_path / "cfg" / "flash.yaml"), "--out", str(tmp_path / "h"),
+                     "--preset", "tiny", "--quiet", *extra]) == 0, extra
+        got = seen[-1][1]
+        assert (got.method, got.policy, got.bounce, got.shadow_samples, got.capture_preset) == \
+            ("tancik", "flash", False, 0, "ideal")
     assert main(["fit", "--config", str(tmp_path / "cfg" / "room.yaml"), "--out", str(tmp_path / "f"),
                  "--preset", "tiny", "--quiet", "--bounce-body-samples", "0"]) == 0
     assert seen[-1][1].bounce_body_samples == 0 and seen[-1][1].bounce

@@ -74,7 +74,8 @@ class FitConfig:
     read photographs with it 33 points worse in the copy room (benchmarks/robustness.py, ``bounce``
     rows); off is the recipe before it."""
     bounce_scale: float = 1.9
-    """What training multiplies the stored ``nlos_bounce`` by (with ``bounce``; ignored without):
+    """What training multiplies the stored ``nlos_bounce`` by (with ``bounce``; moot without, and
+    recorded as 1):
     :data:`render.bounce.BOUNCE_TAIL` (1.9) stands in for every later bounce as Mitsuba measures
     them, 1 the fifth bounce alone."""
     bounce_body_samples: int = 1024
@@ -134,8 +135,6 @@ class FitConfig:
             raise NlosError(f"--bounce: expected on or off, and on (the default) needs the shadow's relay points "
                             f"(shadow_samples > 0; add --bounce off), got {self.bounce!r} with shadow_samples "
                             f"{self.shadow_samples}")
-        if not self.bounce:
-            self.bounce_scale = 1.0  # nothing to scale: recorded as the stored term
         n = self.bounce_body_samples
         if isinstance(n, bool) or not isinstance(n, int) or not 0 <= n <= 1_000_000:
             raise NlosError(f"fit: bounce_body_samples must be an integer from 0 (the body's own) to 1000000, got {n!r}")
@@ -218,7 +217,12 @@ class FitConfig:
         return self.transport_people + self.people + 2 * self.heldout
 
     def to_dict(self) -> dict:
-        return dataclasses.asdict(self)
+        """The record (``fit.json``'s settings). Without the bounce its settings are moot and recorded
+        as the recipe before them (:data:`BEFORE`), so a fit without it matches an older one's record."""
+        d = dataclasses.asdict(self)
+        if not self.bounce:
+            d.update({k: BEFORE[k] for k in BOUNCE_SETTINGS})
+        return d
 
     @classmethod
     def from_record(cls, settings: dict) -> "FitConfig":
@@ -243,6 +247,10 @@ MAX_WORKERS = 256
 BEFORE = {"method": "ours", "capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "footprint_jitter": False, "shadow_samples": 0,
           "clothing": "dataset", "bounce": False, "bounce_scale": 1.0, "bounce_body_samples": 0, "shadow_relay": "fixed", "world_variation": "ideal", "ceiling_people": 0}
 """What a room model fitted before each of these settings existed did (see their docstrings)."""
+
+
+BOUNCE_SETTINGS = ("bounce_scale", "bounce_body_samples")
+"""Settings of the bounce, moot without it (:meth:`FitConfig.to_dict`)."""
 
 
 def recorded(settings: dict) -> dict:

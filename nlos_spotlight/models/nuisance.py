@@ -110,17 +110,19 @@ EXACT_SVD_ENTRIES = 1 << 24
 32 x 32 hold 9.2M entries); above it a randomized SVD (Halko et al. 2011) finds the few leading ones."""
 
 
-def leading_directions(x: torch.Tensor, k: int) -> torch.Tensor:
+def leading_directions(x: torch.Tensor, k: int, oversample: int = 10, power: int = 4) -> torch.Tensor:
     """(k, M) the leading right singular vectors of the centred rows ``x`` (N, M): by a full SVD up
-    to :data:`EXACT_SVD_ENTRIES` entries, else by ``torch.svd_lowrank`` (oversampled by 10, four
-    power iterations: the people's light has a fast-falling spectrum)."""
+    to :data:`EXACT_SVD_ENTRIES` entries, else by a randomized range finder (Halko et al. 2011,
+    Alg. 4.4: ``oversample`` extra columns, ``power`` subspace iterations: the people's light has a
+    fast-falling spectrum) drawn from its own seeded generator, so no caller's random stream moves."""
     if x.numel() <= EXACT_SVD_ENTRIES:
         return torch.linalg.svd(x, full_matrices=False)[2][:k]
-    gen = torch.random.fork_rng(devices=[])  # a seeded draw that leaves the caller's stream alone
-    with gen:
-        torch.manual_seed(0)
-        v = torch.svd_lowrank(x, q=min(k + 10, *x.shape), niter=4)[2]
-    return v[:, :k].T
+    q = min(k + oversample, *x.shape)
+    gen = torch.Generator(device=x.device).manual_seed(0)
+    basis = torch.linalg.qr(x @ torch.randn(x.shape[1], q, generator=gen, device=x.device, dtype=x.dtype))[0]
+    for _ in range(power):  # re-orthonormalized each pass (numerically stable subspace iteration)
+        basis = torch.linalg.qr(x @ torch.linalg.qr(x.T @ basis)[0])[0]
+    return torch.linalg.svd(basis.T @ x, full_matrices=False)[2][:k]
 
 
 def project_out_reference(diff, basis, weights):

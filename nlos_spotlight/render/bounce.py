@@ -138,7 +138,7 @@ def bounce_image(sh: "SpotShadow", y: torch.Tensor, person, t: torch.Tensor) -> 
 
     r = sh.r
     n = r.settings.bounce_body_samples
-    if 0 < n < len(person):  # a coarser, unbiased body quadrature for this smooth term
+    if 0 < n < len(person):  # a coarser stratified body quadrature for this smooth term
         person = person.resampled(n, sh.offset)
     with torch.no_grad():
         t_np = t.detach().cpu().numpy().astype("float64")

@@ -11,7 +11,7 @@ import pytest
 import torch
 
 from nlos_spotlight.cli import main
-from nlos_spotlight.fit.config import PRESETS, FitConfig
+from nlos_spotlight.fit.config import BEFORE, PRESETS, FitConfig
 from nlos_spotlight.fit.run import dataset_config, fit_room, render_people
 from nlos_spotlight.scene.examples import corner_scene
 from nlos_spotlight.scene.io import save_scene
@@ -323,7 +323,9 @@ def test_config_checks():
 
     cfg = FitConfig()  # the default recipe trains on every later bounce, as Mitsuba measures them
     assert cfg.bounce and cfg.bounce_scale == BOUNCE_TAIL and cfg.bounce_body_samples > 0
-    assert FitConfig(bounce=False, bounce_scale=3.0).bounce_scale == 1.0  # nothing to scale
+    off = FitConfig(bounce=False, bounce_scale=3.0).to_dict()  # moot without the bounce: recorded as before it
+    assert off["bounce_scale"] == BEFORE["bounce_scale"] and off["bounce_body_samples"] == BEFORE["bounce_body_samples"]
+    assert dataclasses.replace(FitConfig(bounce=False), bounce=True).bounce_scale == BOUNCE_TAIL
     with pytest.raises(Exception, match="add --bounce off"):  # the bounce goes through the shadow's relay points
         FitConfig(shadow_samples=0)
     assert not FitConfig(shadow_samples=0, bounce=False).bounce
@@ -660,7 +662,7 @@ def test_bounce_is_stored_and_trained_on(fitted, room_dir, tmp_path):
     from nlos_spotlight.train.imaging import form_parts
 
     src, report = fitted
-    cfg = dataclasses.replace(TINY, bounce=True)
+    cfg = dataclasses.replace(TINY, bounce=True, bounce_body_samples=32)  # under the body's 64: resampled
     out = tmp_path / "bounce"
     fit_room(str(room_dir), out, cfg, {}, progress=False, people_from=src)
     got = load_block_light(out, cfg)
@@ -668,10 +670,14 @@ def test_bounce_is_stored_and_trained_on(fitted, room_dir, tmp_path):
     dcfg = dataclasses.replace(dataset_config(cfg, out / "room"), room=str((out / "room").resolve()))
     k = int(np.argmax(got["nlos_bounce"].reshape(len(got["nlos_bounce"]), -1).sum(1)))
     idx = [cfg.transport_people + k]
-    settings = dcfg.render_settings(shadow_samples=cfg.shadow_samples)
-    again = SceneBuilder(dcfg, plan(dcfg)[0], out / "data").rerender(
-        idx, settings, np.asarray(report["spot"]["aim"]), ("nlos_bounce",), relay_offsets(idx, cfg))["nlos_bounce"][0]
+    settings = dcfg.render_settings(shadow_samples=cfg.shadow_samples, bounce_body_samples=cfg.bounce_body_samples)
+    builder = SceneBuilder(dcfg, plan(dcfg)[0], out / "data")
+    again = builder.rerender(idx, settings, np.asarray(report["spot"]["aim"]), ("nlos_bounce",),
+                             relay_offsets(idx, cfg))["nlos_bounce"][0]
     np.testing.assert_allclose(got["nlos_bounce"][k], again, rtol=2e-3, atol=2e-3 * np.abs(again).max())
+    own = builder.rerender(idx, dataclasses.replace(settings, bounce_body_samples=0), np.asarray(report["spot"]["aim"]),
+                           ("nlos_bounce",), relay_offsets(idx, cfg))["nlos_bounce"][0]
+    assert np.abs(own - again).max() > 1e-3 * np.abs(own).max()  # the 32 samples were used, not the body's own
     s, = load_split(out / "data", "train", [], samples="images")
     s = with_shadow(s, out, dataclasses.replace(cfg, bounce_scale=1.0), report["spot"]["face"])  # as stored
     y = torch.zeros(len(s.faces))
@@ -699,7 +705,15 @@ def test_bounce_is_stored_and_trained_on(fitted, room_dir, tmp_path):
     (out / "train" / "result.json").unlink()  # not trained yet: rendered again with the floor
     fit_room(str(room_dir), out, cfg, {}, resume=True, progress=False)
     assert all(p.stat().st_mtime_ns != t for p, t in stamps.items())
-    assert json.loads((out / "shadow" / "meta.json").read_text())["bounce_near_field"] == 1.0
+    meta = json.loads((out / "shadow" / "meta.json").read_text())
+    assert meta["bounce_near_field"] == 1.0 and meta["bounce_body_samples"] == 32
+    del meta["bounce_body_samples"]  # as a fit before the bounce's body samples: the body's own quadrature
+    (out / "shadow" / "meta.json").write_text(json.dumps(meta))
+    stamps = {p: p.stat().st_mtime_ns for p in (out / "shadow").glob("block-*.npz")}
+    assert (out / "train" / "result.json").exists()  # the resume above trained it again: it keeps its blocks
+    fit_room(str(room_dir), out, cfg, {}, resume=True, progress=False)
+    assert {p: p.stat().st_mtime_ns for p in stamps} == stamps
+    assert json.loads((out / "shadow" / "meta.json").read_text())["bounce_body_samples"] == 0
 
 
 def test_method_fits_a_baseline_on_the_same_people(fitted, room_dir, tmp_path):

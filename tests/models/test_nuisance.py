@@ -151,7 +151,8 @@ def test_person_directions_span_the_people_light():
 def test_randomized_directions_span_the_exact_ones(monkeypatch):
     """Above the full SVD's size the leading directions come from a randomized SVD: on people light
     of a fast-falling spectrum (four patterns and a little noise) they span the exact ones (their
-    principal angles' cosines 1 to 1e-6), and the caller's random stream is left as it was."""
+    principal angles' cosines 1 to 1e-6), and the caller's random stream is left as it was (the
+    range finder draws from a generator of its own)."""
     import nlos_spotlight.models.nuisance as nui
 
     g = torch.Generator().manual_seed(3)

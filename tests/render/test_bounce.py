@@ -63,7 +63,7 @@ def test_bounce_loops_equal_the_torch_leg_and_scale_with_albedo():
     np.testing.assert_allclose(imgs[1], 0.5 * imgs[0], rtol=1e-9, atol=1e-15)
 
 
-def test_a_coarser_body_is_an_unbiased_bounce():
+def test_a_coarser_body_averages_to_the_bounce():
     """``bounce_body_samples``: the bounce through n stratified body samples at the relay points'
     offset is the same term rendered with that resampled body; over eight offsets it averages to the
     fine body's bounce (the body's own face quadrature, 2,000 samples) within 1.5%, a single draw

@@ -144,3 +144,22 @@ def test_closed_body_wound_inward_gets_the_same_light():
     assert total > 0 and float(imgs[1].sum()) == pytest.approx(total, rel=0.03)
     blocks = [im.reshape(2, 4, 2, 4, 3).sum((1, 3)) for im in imgs]
     torch.testing.assert_close(blocks[1], blocks[0], rtol=0.05, atol=0.01 * float(blocks[0].max()))
+
+
+@pytest.mark.parametrize("inward", [False, True])
+def test_resampled_body_is_the_mc_rule_of_the_same_mesh(inward):
+    """``Person.resampled`` (the bounce's coarser body): at offset 0.5 exactly the ``"mc"`` rule's
+    samples of the same mesh (positions, areas and normals, turned outward on a closed mesh wound
+    inward), whatever quadrature the person was made with; at another offset other points of it."""
+    from nlos_spotlight.scene.builders import box
+    from nlos_spotlight.scene.format import TriMesh
+
+    out = box([1.0, 1.4, 0.0], [1.3, 1.7, 1.7])
+    mesh = TriMesh(out.vertices, out.faces[:, ::-1].copy()) if inward else out
+    fine = Person.from_mesh(mesh, [0.4, 0.5, 0.6], 400, "faces")
+    coarse, ref = fine.resampled(64, 0.5), Person.from_mesh(mesh, [0.4, 0.5, 0.6], 64, "mc")
+    for k in ("pos", "normal", "area", "albedo"):
+        assert np.array_equal(getattr(coarse, k), getattr(ref, k)), k
+    assert coarse.closed and (coarse.normal * (coarse.pos - out.vertices.mean(0))).sum(1).min() > 0  # outward
+    other = fine.resampled(64, 0.2)
+    assert not np.allclose(other.pos, coarse.pos) and np.isclose(other.area.sum(), coarse.area.sum())
