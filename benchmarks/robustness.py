@@ -34,7 +34,8 @@ draws for every condition:
   16 x 16 converged?); ``bounce`` (``--bounce``): the camera photographs with the person's light
   over one more static bounce as well (``nlos_bounce``, :func:`bounce_light`), magnitude 1, and
   with it scaled to every later bounce (magnitude ``--bounce-tail``, :data:`BOUNCE_TAIL`);
-  ``--noise-draws`` averages every row over sensor-noise draws;
+  ``--photograph-bounce`` puts that tail in the ``camera``, clothing and ``all`` photographs too
+  (every camera photograph holds it); ``--noise-draws`` averages every row over sensor-noise draws;
 * ``mitsuba`` (``--mitsuba SPP``): with-minus-without photographs by Mitsuba 3's particle tracer
   at 6 bounces (:func:`mitsuba_people`);
 * ``capture-all``: every capture effect at 1x ``tripod`` together, on the fit's person light;
@@ -513,8 +514,11 @@ def paired(name: str, reading: str, outcomes: dict) -> list[dict]:
     return out
 
 
-def conditions(room: Room, people: dict | None, magnitudes: list[float], bounce_tail: float = 1.0):
-    """(condition, magnitude, test people, variation) for every row of one room model."""
+def conditions(room: Room, people: dict | None, magnitudes: list[float], bounce_tail: float = 1.0,
+               photograph_bounce: bool = False):
+    """(condition, magnitude, test people, variation) for every row of one room model;
+    ``photograph_bounce``: the camera photographs (``camera``, the clothing rows, ``all``) hold the
+    person's light over every later bounce too (``bounce_nlos`` x ``bounce_tail``), as a camera's do."""
     from nlos_spotlight.render.variation import CAPTURE_EFFECTS, preset
     from nlos_spotlight.train.imaging import form_parts
 
@@ -530,7 +534,8 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float], bounce_
     t = room.test
     albedo = t.albedo.numpy()[:, None, None, :]
     c = people  # the camera photographs' parts (``camera_photographs``) and the 2 x 2 renders (``camera_people``)
-    cam = lambda a: with_person_light(t, room.spot, c["cam_nlos"] * (a / albedo) + c["cam_nlos_shadow"],
+    later = bounce_tail * c["bounce_nlos"] if photograph_bounce else 0.0  # scales with the clothing, as nlos does
+    cam = lambda a: with_person_light(t, room.spot, (c["cam_nlos"] + later) * (a / albedo) + c["cam_nlos_shadow"],
                                       c["cam_nlos_ambient"] * ((1 - a) / (1 - albedo)))
     yield "pixel-integrated", 1.0, with_person_light(t, room.spot, c["cam_nlos"], c["cam_nlos_ambient"]), ideal
     yield "pixel-integrated-2x2", 1.0, with_person_light(t, room.spot, c["fine_nlos"], c["fine_nlos_ambient"]), ideal
@@ -784,6 +789,8 @@ def main(argv=None) -> int:
                     "one more static bounce (nlos_bounce; about 5 s a person)")
     ap.add_argument("--bounce-tail", type=float, default=BOUNCE_TAIL,
                     help="also the bounce photographs with nlos_bounce times this (every later bounce); 1: not")
+    ap.add_argument("--photograph-bounce", action="store_true", help="with --bounce, the camera photographs "
+                    "(camera, clothing-*, all) hold the bounce at --bounce-tail, as a camera's do")
     ap.add_argument("--camera-grid", action="store_true", help="the camera photographs as before jittering: "
                     "16 x 16 sub-samples at their cells' centres (biased about 3.6%% in the copy room)")
     ap.add_argument("--fine", action="store_true", help="also the camera photographs with the person's light at "
@@ -804,6 +811,8 @@ def main(argv=None) -> int:
     ap.add_argument("--out", required=True, help="CSV to write (a JSON of the run beside it)")
     args = ap.parse_args(argv)
     mags = [float(m) for m in args.magnitudes.split(",")]
+    if args.photograph_bounce and not args.bounce:
+        raise NlosError("--photograph-bounce: the camera photographs' bounce is rendered with --bounce")
     effects = tuple(e.strip() for e in args.world_effects.split(",") if e.strip())
     if set(effects) - set(WORLD_EFFECTS):
         raise NlosError(f"--world-effects: unknown {', '.join(sorted(set(effects) - set(WORLD_EFFECTS)))} "
@@ -869,7 +878,7 @@ def main(argv=None) -> int:
         worlds = world_conditions(room, Path(args.cache), world_mags, args.world_draws, effects) \
             if world_mags and not args.no_render else []
         outcomes = {}
-        for cond, mag, test, var in [*conditions(room, people, mags, args.bounce_tail), *worlds]:
+        for cond, mag, test, var in [*conditions(room, people, mags, args.bounce_tail, args.photograph_bounce), *worlds]:
             r = score(room, test, var, args.seed, args.noise_draws)
             outcomes[(cond, mag)] = r
             rows.append({"room": name, "reading": reading, "condition": cond, "magnitude": mag,
