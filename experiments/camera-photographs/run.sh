@@ -14,7 +14,7 @@ $PY experiments/people-curve/people_curve.py --rooms copyroom,icl_livingroom2 --
 $PY -m nlos_spotlight.cli fit --config $ROOMS/copyroom.yaml --out out/fits7/copyroom-jitter --people 3000 \
     --footprint jittered --quiet
 $PY -m nlos_spotlight.cli fit --config $ROOMS/copyroom.yaml --out out/fits7/copyroom-bounce --people 3000 \
-    --people-from out/people-curve2/copyroom-3000 --bounce on --quiet
+    --people-from out/people-curve2/copyroom-3000 --bounce on --bounce-scale 1 --bounce-body-samples 0 --quiet
 # read on camera photographs (jittered 8 x 8, 4 draws averaged), with the fifth bounce, under drift
 $PY benchmarks/robustness.py --model copyroom:relay=out/people-curve2/copyroom-3000 \
     --model copyroom:jitter=out/fits7/copyroom-jitter --camera-draws 4 --noise-draws 5 --bounce \
@@ -35,7 +35,7 @@ $PY benchmarks/drift_directions.py --model out/people-curve2/copyroom-3000 --out
 $PY benchmarks/robustness.py --model copyroom:relay=out/people-curve2/copyroom-3000 --no-render --noise-draws 1 \
     --magnitudes 2 --out out/robustness8/copyroom-flags-only.csv
 $PY -m nlos_spotlight.cli fit --config $ROOMS/copyroom.yaml --out out/fits8/copyroom-bounce19 --people 3000 \
-    --people-from out/fits7/copyroom-bounce --bounce on --bounce-scale 1.9 --quiet
+    --people-from out/fits7/copyroom-bounce --bounce on --bounce-scale 1.9 --bounce-body-samples 0 --quiet
 $PY benchmarks/robustness.py --model copyroom:bounce=out/fits7/copyroom-bounce \
     --model copyroom:bounce19=out/fits8/copyroom-bounce19 --camera-draws 4 --noise-draws 5 --bounce --flag-captures 0 \
     --magnitudes 2 --cache out/robustness7 --out out/robustness8/copyroom-bounce-fixed.csv
@@ -46,7 +46,17 @@ $PY benchmarks/robustness.py --model copyroom:relay=out/people-curve2/copyroom-3
     --bounce --flag-captures 0 --magnitudes 2 --cache out/robustness7 --out out/robustness8/copyroom-relay-near.csv
 # the bounce rendered again with the distance floor (its shadow step renders again), read on the floored photographs
 $PY -m nlos_spotlight.cli fit --config $ROOMS/copyroom.yaml --out out/fits8/copyroom-near --people 3000 \
-    --people-from out/fits7/copyroom-bounce --bounce on --quiet
+    --people-from out/fits7/copyroom-bounce --bounce on --bounce-scale 1 --bounce-body-samples 0 --quiet
 $PY benchmarks/robustness.py --model copyroom:near=out/fits8/copyroom-near \
     --model copyroom:relay=out/people-curve2/copyroom-3000 --camera-draws 4 --noise-draws 5 --bounce --flag-captures 0 \
     --magnitudes 2 --cache out/robustness7 --out out/robustness8/copyroom-near.csv
+# session 9: the floored bounce at x1.9 (now nlos fit's default), the bounce through 1,024 body samples, the default refit
+$PY -m nlos_spotlight.cli fit --config $ROOMS/copyroom.yaml --out out/fits8/copyroom-near19 --people 3000 \
+    --people-from out/fits8/copyroom-near --bounce on --bounce-scale 1.9 --bounce-body-samples 0 --quiet
+$PY benchmarks/robustness.py --model copyroom:near=out/fits8/copyroom-near --model copyroom:near19=out/fits8/copyroom-near19 \
+    --camera-draws 4 --noise-draws 5 --bounce --flag-captures 0 --magnitudes 2 --cache out/robustness7 \
+    --out out/robustness8/copyroom-near.csv
+$PY benchmarks/bounce_body_samples.py --model out/people-curve2/copyroom-3000 --people 8 --samples 1024,512,256 \
+    --out docs/results/bounce-body-samples.txt
+$PY -m nlos_spotlight.cli fit --config $ROOMS/copyroom.yaml --out out/fits9/copyroom-default --people 3000 \
+    --people-from out/fits8/copyroom-near --quiet
