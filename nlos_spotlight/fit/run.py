@@ -166,7 +166,8 @@ def check_out(out: Path, record: dict, resume: bool) -> None:
         a, b = recorded(old.get("settings", {})), record["settings"]
         diff = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k) and k not in RESUMABLE_CHANGES)
         if diff:
-            raise NlosError(f"{out} holds a fit with other settings (differs in: {', '.join(diff)})")
+            raise NlosError(f"{out} holds a fit with other settings (differs in: {', '.join(diff)}; a fit made "
+                            f"under older defaults resumes with the flags it had, or choose another --out)")
         return
     if out.exists() and any(p.name != LOCK for p in out.iterdir()):
         raise NlosError(f"--out: {out} exists and is not a room model; choose an empty or new directory")

@@ -526,6 +526,14 @@ def test_a_fit_recorded_before_a_setting_existed_resumes(fitted, tmp_path):
     (tmp_path / "fit.json").write_text(json.dumps(old))
     with pytest.raises(NlosError, match="differs in: pixel_footprint"):
         check_out(tmp_path, rec, resume=True)  # at the pixel's centre then, a footprint now
+    # a model of the recipe before the bounce: refused under today's default (the bounce), and
+    # resumed with --bounce off alone (its moot settings recorded as before them)
+    old = dict(rec, settings={k: v for k, v in rec["settings"].items() if not k.startswith("bounce")})
+    (tmp_path / "fit.json").write_text(json.dumps(old))
+    with pytest.raises(NlosError, match="differs in: bounce.*resumes with the flags it had"):
+        check_out(tmp_path, rec, resume=True)
+    off = dataclasses.replace(FitConfig.from_record(rec["settings"]), bounce=False).to_dict()
+    check_out(tmp_path, dict(rec, settings={**rec["settings"], **off}), resume=True)
 
 
 def test_a_fit_refused_before_any_person_leaves_nothing(room_dir, tmp_path, monkeypatch, capsys):
