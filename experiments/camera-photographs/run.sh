@@ -60,3 +60,11 @@ $PY benchmarks/bounce_body_samples.py --model out/people-curve2/copyroom-3000 --
     --out docs/results/bounce-body-samples.txt
 $PY -m nlos_spotlight.cli fit --config $ROOMS/copyroom.yaml --out out/fits9/copyroom-default --people 3000 \
     --people-from out/fits8/copyroom-near --quiet
+$PY benchmarks/robustness.py --model copyroom:bounce=out/fits8/copyroom-near19 --model copyroom:relay=out/people-curve2/copyroom-3000 \
+    --camera-draws 4 --noise-draws 5 --bounce --photograph-bounce --flag-captures 200 --flag-multiples 1,2 \
+    --cache out/robustness7 --out out/robustness9/copyroom.csv
+$PY benchmarks/robustness.py --model copyroom:default=out/fits9/copyroom-default --camera-draws 4 --noise-draws 5 --bounce \
+    --photograph-bounce --flag-captures 0 --magnitudes 2 --cache out/robustness7 --out out/robustness9/copyroom-default.csv
+# next: the living room and the office under the default (about 1-2 h each on 2 cores, resumable)
+$PY -m nlos_spotlight.cli fit --config $ROOMS/icl_office2.yaml --out out/fits9/office-default --people 1500 \
+    --people-from out/fits3/office --quiet
