@@ -489,6 +489,22 @@ BOOTSTRAP = 2000
 """Resamples of the people for the error ratio's 95% interval."""
 
 
+MITSUBA_REFERENCES = ("camera-mitsuba-people", "camera-mitsuba-noise")
+"""Mitsuba's photographs are paired with ours of the same people too: as rendered, and with
+Mitsuba's own Monte Carlo noise added (what its noise alone costs)."""
+
+
+def _pairs(outcomes: dict):
+    """((condition, magnitude), outcome, reference name) of every pairing :func:`paired` reports."""
+    for (cond, mag), r in outcomes.items():
+        if cond in ("ideal", "world-scan", "fit-photographs"):
+            continue
+        yield (cond, mag), r, "world-scan" if cond in WORLD_EFFECTS else "ideal"
+        if cond == "mitsuba":
+            for ref in MITSUBA_REFERENCES:
+                yield (cond, mag), r, ref
+
+
 def paired(name: str, reading: str, outcomes: dict) -> list[dict]:
     """Each row against its reference on the same people (``ideal``; ``world-scan`` for the world
     effects, repeated over the worlds pooled in a row): the drop in six-way posture (points) with
@@ -497,10 +513,9 @@ def paired(name: str, reading: str, outcomes: dict) -> list[dict]:
     benchmark resolves, and this says by how much."""
     rng = np.random.default_rng(0)
     out = []
-    for (cond, mag), r in outcomes.items():
-        ref_name = "world-scan" if cond in WORLD_EFFECTS else "ideal"
-        ref = outcomes.get((ref_name, 0.0))
-        if ref is None or cond in ("ideal", "world-scan", "fit-photographs"):
+    for (cond, mag), r, ref_name in _pairs(outcomes):
+        ref = outcomes.get((ref_name, 0.0 if ref_name in ("ideal", "world-scan") else mag))
+        if ref is None or len(r["correct"]) < len(ref["correct"]):
             continue
         k = len(r["correct"]) // len(ref["correct"])
         c0, e0 = np.tile(ref["correct"], k), np.tile(ref["error_m"], k)
@@ -580,9 +595,24 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float], bounce_
     if "mitsuba_presence" in c:  # the first people only: ours beside Mitsuba's on the same people
         n = len(c["mitsuba_presence"])
         few, pick = t.subset(torch.arange(n)), lambda a: a[:n]
-        yield "camera-mitsuba-people", 1.0, with_person_light(few, room.spot, pick(c["cam_nlos"]) + pick(
-            c["cam_nlos_shadow"]), pick(c["cam_nlos_ambient"])), ideal
+        ours = pick(c["cam_nlos"] + later + c["cam_nlos_shadow"])  # every bounce we render, as the camera rows
+        yield "camera-mitsuba-people", 1.0, with_person_light(few, room.spot, ours, pick(c["cam_nlos_ambient"])), ideal
+        noisy = ours + mc_noise_like(ours, c["mitsuba_noise"], np.random.default_rng(MITSUBA_NOISE_SEED))
+        yield "camera-mitsuba-noise", 1.0, with_person_light(few, room.spot, noisy, pick(c["cam_nlos_ambient"])), ideal
         yield "mitsuba", 1.0, with_person_light(few, room.spot, c["mitsuba_presence"], pick(c["cam_nlos_ambient"])), ideal
+
+
+MITSUBA_NOISE_SEED = 35
+
+
+def mc_noise_like(images: np.ndarray, relative: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """(N, H, W, 3) zero-mean noise whose relative L2 to each of ``images`` is ``relative`` (N,), its
+    variance in each pixel proportional to the pixel's magnitude: a particle tracer's noise, whose
+    paths land where the light is (a proxy: the two halves' difference is not stored)."""
+    z = rng.standard_normal(images.shape) * np.sqrt(np.abs(images))
+    scale = np.asarray(relative) * np.linalg.norm(images.reshape(len(images), -1), axis=1) / np.maximum(
+        np.linalg.norm(z.reshape(len(z), -1), axis=1), 1e-300)
+    return z * scale[:, None, None, None]
 
 
 def drifted_captures(room: Room, multiple: float, per: int, gen: torch.Generator):

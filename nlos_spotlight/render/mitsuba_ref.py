@@ -12,20 +12,46 @@ that never meet the person cancel exactly).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..scene.format import Scene, TriMesh
 
 VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
+"""CPU variants, tried in order after the GPU's (``cuda_ad_rgb``, where Dr.Jit traces on CUDA here)."""
+
+GPU_CHUNK_SPP = 1 << 16
+"""Samples a pixel per ``mi.render`` call on the GPU (4,096 on the CPU): a 32 x 32 film's 67M paths
+a launch keep the GPU busy; the chunking sets the seeds, so the same settings give the same image."""
 
 
-def use_mitsuba():
-    """Import mitsuba with the first variant that works here."""
+@functools.lru_cache(maxsize=None)
+def _cuda_traces() -> bool:
+    """Whether Mitsuba's CUDA variant traces a ray here (a build without the driver's OptiX fails
+    only when it traces)."""
     import mitsuba as mi
 
-    for v in VARIANTS:
+    try:
+        mi.set_variant("cuda_ad_rgb")
+        hit = mi.load_dict({"type": "scene", "r": {"type": "rectangle"}}).ray_test(mi.Ray3f([0, 0, -1], [0, 0, 1]))
+        return bool(hit[0])
+    except Exception:  # no CUDA driver, no OptiX
+        return False
+
+
+def use_mitsuba(device: str = "auto"):
+    """Import mitsuba with the first variant that works here: the GPU's where ``device`` is 'auto' or
+    'cuda' and one is present, else a CPU one (the reference is the same physics on either)."""
+    import mitsuba as mi
+
+    gpu = ("cuda_ad_rgb",) if device != "cpu" and _cuda_traces() else ()
+    if device == "cuda" and not gpu:
+        raise RuntimeError("Mitsuba cannot trace on a CUDA GPU here")
+    for v in gpu + VARIANTS:
         try:
-            mi.set_variant(v)
+            if mi.variant() != v:
+                mi.set_variant(v)
             return mi
         except Exception:  # a variant can be missing from the build or fail to JIT on old LLVM
             continue
@@ -98,9 +124,13 @@ def to_mitsuba(scene: Scene, aim_point: np.ndarray, with_person: bool, max_depth
     return mi.load_dict(d)
 
 
-def render_mitsuba(mscene, spp: int, seed: int = 0, chunk_spp: int = 4096) -> np.ndarray:
-    """(H, W, 3) float64 mean over ``spp`` samples, rendered in chunks with seeds seed, seed+1, ..."""
+def render_mitsuba(mscene, spp: int, seed: int = 0, chunk_spp: int | None = None) -> np.ndarray:
+    """(H, W, 3) float64 mean over ``spp`` samples, rendered in chunks with seeds seed, seed+1, ...
+    (``chunk_spp``: 4,096 on the CPU, :data:`GPU_CHUNK_SPP` on the GPU)."""
     import mitsuba as mi
+
+    if chunk_spp is None:
+        chunk_spp = GPU_CHUNK_SPP if mi.variant().startswith("cuda") else 4096
 
     acc, done, k = 0.0, 0, 0
     while done < spp:

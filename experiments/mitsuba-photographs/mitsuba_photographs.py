@@ -1,0 +1,184 @@
+"""Held-out people of a fitted room photographed by Mitsuba 3 (issue 35, item 3), in three steps
+that can run on different machines:
+
+``export``  (where the body model is): the room model's scene, its spot's aim and the held-out
+            people's meshes and albedos -> ``BUNDLE/`` (``room/``, an nlos-scene/1 directory, and
+            ``people.npz``).
+``render``  (a GPU when there is one; only Mitsuba, trimesh and the package needed): each person as
+            ``benchmarks/robustness.py``'s ``mitsuba`` condition renders it (the room with the person
+            minus without, same seeds, the particle tracer at ``MITSUBA_DEPTH`` bounces; two halves at
+            other seeds give the Monte Carlo noise), until a deadline -> one ``.npz`` rewritten after
+            every person. ``--spp 0`` measures the first person and picks the samples that fit
+            ``--people`` people in the time given.
+``unpack``  the rendered people into ``benchmarks/robustness.py``'s cache
+            (``CACHE/ROOM/mitsuba-d6-sppSPP/NNNNN.npz``): ``robustness.py --mitsuba SPP`` reads them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+
+MITSUBA_DEPTH = 6  # as benchmarks/robustness.py's MITSUBA_DEPTH
+
+
+def export(model: Path, people: int, out: Path, face: int | None) -> None:
+    """``face``: the spot, for a fit still rendering its people (the aim as ``nlos fit`` will print
+    it; the held-out people by the split rule, which ``unpack`` checks once the people exist)."""
+    from nlos_spotlight.fit.run import finished_model, room_builder
+    from nlos_spotlight.fit.spot import spot_record
+    from nlos_spotlight.fit.train import split_period
+
+    if face is None:
+        cfg, aim, builder, dcfg = finished_model(model)
+    else:
+        from nlos_spotlight.fit.config import FitConfig
+
+        cfg = FitConfig.from_record(json.loads((model / "fit.json").read_text())["settings"])
+        builder, dcfg = room_builder(model, cfg)
+        aim = np.asarray(spot_record(model, face)["aim"], np.float64)
+    scene, _ = builder._room()
+    specs = builder._specs(scene)
+    images = dcfg.samples_per_scene - dcfg.transport_samples_per_scene  # all static in a fit
+    period = split_period(images, cfg.heldout)
+    idx = [p + dcfg.transport_samples_per_scene for p in range(period - 1, images, period)][:min(people, cfg.heldout)]
+    verts, faces, nv, nf, albedo = [], [], [], [], []
+    for k in idx:
+        _, person, t = builder._person(specs[k], scene.hidden_region.floor_z)
+        m = person.translated_mesh(t)
+        verts.append(np.asarray(m.vertices, np.float64))
+        faces.append(np.asarray(m.faces, np.int64))
+        nv.append(len(m.vertices))
+        nf.append(len(m.faces))
+        albedo.append(np.asarray(specs[k]["params"].albedo, np.float64))
+    out.mkdir(parents=True, exist_ok=True)
+    shutil.copytree(model / "room", out / "room", dirs_exist_ok=True)
+    np.savez_compressed(out / "people.npz", indices=np.asarray(idx), aim=aim, albedo=np.stack(albedo),
+                        vertices=np.concatenate(verts), faces=np.concatenate(faces),
+                        num_vertices=np.asarray(nv), num_faces=np.asarray(nf))
+    print(f"{len(idx)} held-out people of {model} -> {out}")
+
+
+def _people(bundle: Path):
+    from nlos_spotlight.scene.format import Human, TriMesh
+
+    with np.load(bundle / "people.npz", allow_pickle=False) as z:
+        p = {k: z[k] for k in z.files}
+    ov, of = np.concatenate([[0], np.cumsum(p["num_vertices"])]), np.concatenate([[0], np.cumsum(p["num_faces"])])
+    humans = [Human("human.ply", p["albedo"][n], TriMesh(p["vertices"][ov[n]:ov[n + 1]], p["faces"][of[n]:of[n + 1]]))
+              for n in range(len(p["indices"]))]
+    return p["indices"], p["aim"], humans
+
+
+def _one(scene, human, aim, spp: int, k: int) -> tuple[np.ndarray, float]:
+    import dataclasses
+
+    from nlos_spotlight.render.mitsuba_ref import mitsuba_nlos
+
+    sc = dataclasses.replace(scene, human=human)
+    half = [mitsuba_nlos(sc, aim, spp // 2, seed=1000 * int(k) + 500 * h, max_depth=MITSUBA_DEPTH,
+                         protocol="presence", integrator="ptracer") for h in (0, 1)]
+    img = (half[0] + half[1]) / 2
+    return img, float(np.linalg.norm(half[0] - half[1]) / 2 / np.linalg.norm(img))
+
+
+def render(bundle: Path, out: Path, spp: int, people: int, seconds: float, device: str, max_spp: int,
+           start: int = 0) -> None:
+    from nlos_spotlight.render.mitsuba_ref import GPU_CHUNK_SPP, use_mitsuba
+    from nlos_spotlight.scene.io import load_scene
+
+    t0 = time.perf_counter()
+    mi = use_mitsuba(device)
+    scene = load_scene(bundle / "room")
+    scene.human = None
+    idx, aim, humans = _people(bundle)
+    idx, humans = idx[start:], humans[start:]  # another machine's share
+    people = min(people, len(idx))
+    chunk = GPU_CHUNK_SPP if mi.variant().startswith("cuda") else 4096
+    if spp <= 0:  # one person at two chunks a half sets the rate, then the samples that fit
+        probe = 4 * chunk
+        ts = time.perf_counter()
+        _one(scene, humans[0], aim, probe, int(idx[0]))
+        per_spp = (time.perf_counter() - ts) / probe
+        spp = min(max_spp, int((seconds - (time.perf_counter() - t0)) / people / per_spp)) // (2 * chunk) * 2 * chunk
+        print(f"probe: {per_spp * 1e6:.2f} us a sample a pixel a person -> {spp} samples a pixel", flush=True)
+        if spp < 2 * chunk:
+            raise SystemExit(f"{people} people do not fit in {seconds:.0f} s at {chunk} samples a pixel")
+    imgs, noise, secs = [], [], []
+    meta = {"spp": spp, "depth": MITSUBA_DEPTH, "variant": mi.variant(), "integrator": "ptracer",
+            "protocol": "presence", "seed_rule": "1000 k + 500 h, h the half", "bundle": str(bundle)}
+    for n in range(people):
+        if time.perf_counter() - t0 > seconds:
+            break
+        ts = time.perf_counter()
+        img, e = _one(scene, humans[n], aim, spp, int(idx[n]))
+        imgs.append(img)
+        noise.append(e)
+        secs.append(time.perf_counter() - ts)
+        tmp = out.with_name(f".{out.name}.tmp.npz")
+        np.savez_compressed(tmp, presence=np.stack(imgs), noise=np.asarray(noise), indices=idx[:len(imgs)], aim=aim,
+                            seconds=np.asarray(secs), meta=np.array(json.dumps(meta)))
+        os.replace(tmp, out)
+        print(f"{n + 1}/{people} people, {secs[-1]:.1f} s, Monte Carlo noise {100 * e:.1f}%", flush=True)
+
+
+def unpack(photographs: Path, cache: Path, room: str, model: Path) -> None:
+    """Check the photographs are of ``model``'s held-out people under its spot, then unpack."""
+    from nlos_spotlight.fit.run import finished_model
+    from nlos_spotlight.fit.train import heldout_indices
+
+    with np.load(photographs, allow_pickle=False) as z:
+        p = {k: z[k] for k in z.files}
+    cfg, aim, _, _ = finished_model(model)
+    want = heldout_indices(model, cfg)[:len(p["indices"])]
+    if list(p["indices"]) != want or not np.allclose(p["aim"], aim, atol=1e-9):
+        raise SystemExit(f"{photographs}: not {model}'s held-out people under its spot")
+    meta = json.loads(str(p["meta"]))
+    d = cache / room / f"mitsuba-d{meta['depth']}-spp{meta['spp']}"
+    d.mkdir(parents=True, exist_ok=True)
+    for img, e, k in zip(p["presence"], p["noise"], p["indices"]):
+        np.savez_compressed(d / f"{int(k):05d}.npz", presence=img, noise=np.float64(e))
+    print(f"{len(p['indices'])} people ({meta['variant']}, {meta['spp']} samples a pixel, Monte Carlo noise median "
+          f"{100 * np.median(p['noise']):.1f}%) -> {d}; read with robustness.py --mitsuba {meta['spp']} "
+          f"--mitsuba-people {len(p['indices'])}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="step", required=True)
+    e = sub.add_parser("export")
+    e.add_argument("--model", type=Path, required=True)
+    e.add_argument("--people", type=int, default=100)
+    e.add_argument("--out", type=Path, required=True)
+    e.add_argument("--face", type=int, default=None, help="the spot of a fit still rendering (else its report's)")
+    r = sub.add_parser("render")
+    r.add_argument("--bundle", type=Path, required=True)
+    r.add_argument("--out", type=Path, required=True)
+    r.add_argument("--spp", type=int, default=0, help="samples a pixel (0: what fits --seconds)")
+    r.add_argument("--people", type=int, default=100)
+    r.add_argument("--seconds", type=float, default=3600.0)
+    r.add_argument("--device", default="auto", choices=("auto", "cpu", "cuda"))
+    r.add_argument("--start", type=int, default=0, help="skip the first people (rendered elsewhere)")
+    r.add_argument("--max-spp", type=int, default=1 << 22, help="at most this many samples a pixel (--spp 0)")
+    u = sub.add_parser("unpack")
+    u.add_argument("--photographs", type=Path, required=True)
+    u.add_argument("--cache", type=Path, required=True)
+    u.add_argument("--room", required=True)
+    u.add_argument("--model", type=Path, required=True, help="the room model the photographs are of")
+    a = ap.parse_args()
+    if a.step == "export":
+        export(a.model, a.people, a.out, a.face)
+    elif a.step == "render":
+        render(a.bundle, a.out, a.spp, a.people, a.seconds, a.device, a.max_spp, a.start)
+    else:
+        unpack(a.photographs, a.cache, a.room, a.model)
+
+
+if __name__ == "__main__":
+    main()
