@@ -359,6 +359,8 @@ def cmd_predict(args: argparse.Namespace) -> None:
     _outputs_not_inputs(args)
     room = load_room_model(args.checkpoint)
     models = load_trained(args.checkpoint)
+    if room is not None:
+        room.check_network(models.config.policy)
     if args.burst is not None and args.burst < 1:
         raise NlosError(f"--burst: expected a positive frame count, got {args.burst}")
     if args.max_rows < 0:

@@ -54,15 +54,45 @@ BY_NAME = {m.name: m for m in METHODS}
 FIT_POLICIES = ("oracle", "ien", "adaptive", "center", "random")
 """Spot policies ``nlos fit`` can aim with."""
 
-UNAIMED = ("flash", "ambient")
-"""Policies that light no spot, which ``nlos fit`` fits too: the flash at the camera lighting its
-whole view (Tancik et al.) and the projector off, the room's own light only (DL-NLOS)."""
+@dataclass(frozen=True)
+class Light:
+    """A light without a spot (a policy of :data:`UNAIMED`), in the words every message uses."""
+
+    words: str
+    """What lights the photographs, as a clause ('the projector off')."""
+    photograph: str
+    """What ``nlos predict`` tells the user to photograph."""
+    capture: str
+    """The fit report's capture: the light in the person's and the empty-room photographs."""
+    blocked: str
+    """The light the body blocks, which such a fit does not render ('the flash')."""
+
+
+LIGHTS = {
+    "flash": Light("the flash at the camera lighting its whole view",
+                   "flash photographs (a flash at the camera lighting its whole view, no projector spot)",
+                   "a flash at the camera lighting its whole view (Tancik et al.; modelled at the camera's centre of "
+                   "projection with the projector spot's total flux, data/flash.py), in the person's photographs and "
+                   "the empty-room photograph alike; no projector spot", "the flash"),
+    "ambient": Light("the projector off", "projector-off photographs (the room's own light only)",
+                     "the projector off: the room's own light only, in the person's photographs and the empty-room "
+                     "photograph alike", "the room's own light"),
+}
+"""The lights without a spot: the flash (Tancik et al.) and the projector off (DL-NLOS)."""
+
+UNAIMED = tuple(LIGHTS)
+"""Policies that light no spot, which ``nlos fit`` fits too (:data:`LIGHTS`)."""
 
 
 def fittable(m: Method) -> bool:
     """Whether ``nlos fit --method`` can fit ``m`` in a room: a spot policy or no spot
     (:data:`UNAIMED`) and an image network, no setting of the IEN's own training."""
     return m.policy in FIT_POLICIES + UNAIMED and m.arch != FLOOR_NET and not m.overrides  # no network import
+
+
+def unaimed_method(light: str) -> str:
+    """The method ``nlos fit`` fits under a light without a spot (the first fittable one of it)."""
+    return next(m.name for m in METHODS if m.policy == light and fittable(m))
 
 
 def fit_method(name: str) -> Method:

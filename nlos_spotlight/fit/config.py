@@ -172,14 +172,14 @@ class FitConfig:
             raise NlosError(f"--world-variation: {str(exc).split(': ', 1)[1]}") from None
         if self.world_variation != "ideal" and self.shadow_samples == 0:
             raise NlosError("--world-variation renders the people again with their shadow: it needs --shadow-samples > 0")
-        from ..evaluate.methods import UNAIMED, fit_method
+        from ..evaluate.methods import LIGHTS, UNAIMED, fit_method, unaimed_method
 
         m = fit_method(self.method)
         if self.policy not in POLICIES and not (self.policy in UNAIMED and self.policy == m.policy):
-            hint = f" (it lights no spot: --method {UNAIMED_METHODS[self.policy]})" if self.policy in UNAIMED else ""
+            hint = f" (it lights no spot: --method {unaimed_method(self.policy)})" if self.policy in UNAIMED else ""
             raise NlosError(f"--policy: expected one of {', '.join(POLICIES)}, got {self.policy!r}{hint}")
         if self.method != "ours" and self.policy != m.policy:
-            what = (f"lights no spot ({LIGHT_WORDS[m.policy]}: policy {m.policy})" if m.policy in UNAIMED
+            what = (f"lights no spot ({LIGHTS[m.policy].words}: policy {m.policy})" if m.policy in UNAIMED
                     else f"aims with the {m.policy} spot")
             raise NlosError(f"--method {self.method} {what}, not --policy {self.policy}")
         if (self.policy == "ien") != bool(self.checkpoint):
@@ -197,9 +197,11 @@ class FitConfig:
 
     def _check_light(self) -> None:
         """Refuse, in one line, a setting that renders a spot's term when the method lights no spot."""
+        from ..evaluate.methods import LIGHTS
+
         if self.light == "spot":
             return
-        why = f"--method {self.method} lights no spot ({LIGHT_WORDS[self.light]})"
+        why = f"--method {self.method} lights no spot ({LIGHTS[self.light].words})"
         spot_only = ((self.bounce is not False, "--bounce on", "the bounce relays the spot's light", "--bounce off"),
                      (self.shadow_samples != 0, f"--shadow-samples {self.shadow_samples}",
                       "the body's shadow is rendered under a spot only", "--shadow-samples 0"),
@@ -231,10 +233,6 @@ class FitConfig:
         return cls(**{k: v for k, v in recorded(settings).items() if k in cls.__dataclass_fields__})
 
 
-LIGHT_WORDS = {"flash": "the flash at the camera lighting its whole view", "ambient": "the projector off"}
-"""A light without a spot in words (``FitConfig.light``)."""
-UNAIMED_METHODS = {"flash": "tancik", "ambient": "dlnlos"}
-"""The method ``nlos fit`` fits under each light without a spot."""
 UNAIMED_DEFAULTS = {"shadow_samples": 0, "bounce": False, "capture_preset": "ideal"}
 """What ``nlos fit --method tancik|dlnlos`` sets where no flag or config file says: the settings
 without a spot term (``FitConfig._check_light`` refuses any other value)."""

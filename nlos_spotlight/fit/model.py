@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import NlosError
+from ..evaluate.methods import LIGHTS
 from .report import region_to_world
 
 
@@ -44,18 +45,26 @@ class RoomModel:
         report written before fits without a spot has a spot)."""
         return (self.report.get("light") or {}).get("mode", "spot")
 
+    def check_network(self, policy: str) -> None:
+        """Refuse, in one line, weights trained under another light than the report's (a room model's
+        ``final.pt`` swapped for another's): such a network reads photographs it never saw."""
+        from ..evaluate.methods import UNAIMED
+
+        light = policy if policy in UNAIMED else "spot"
+        if light != self.light:
+            said = lambda x: "a projector spot" if x == "spot" else LIGHTS[x].words
+            raise NlosError(f"{self.path}: final.pt was trained under {said(light)} (policy {policy}), but report.json "
+                            f"says the photographs are taken under {said(self.light)}; fit the room again")
+
     def describe(self) -> str:
         """What to photograph: where the spot is aimed, or with what light, and the capture."""
         s = self.report["spot"]
         light = (f"spot on face {s['face']} (pan {s['pan_deg']:+.1f} deg, tilt {s['tilt_deg']:+.1f} deg)"
-                 if self.light == "spot" else f"no spot: {LIGHTS[self.light]}")
+                 if self.light == "spot" else f"no spot: {LIGHTS[self.light].photograph}")
         return (f"room model {self.path}: {light}; capture: bursts of {self.burst_frames} frames of "
                 f"{1000 * self.exposure_s:.0f} ms, minus the empty-room burst (--background) in the same light")
 
 
-LIGHTS = {"flash": "flash photographs (a flash at the camera lighting its whole view, no projector spot)",
-          "ambient": "projector-off photographs (the room's own light only)"}
-"""What ``nlos predict`` tells the user to photograph for a room model without a spot."""
 
 
 def load_room_model(path: str | Path) -> RoomModel | None:

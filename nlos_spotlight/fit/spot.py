@@ -114,18 +114,18 @@ def light_record(cfg) -> dict:
     """``report.json``'s ``light`` for a fit without a spot (``cfg.light`` 'flash' or 'ambient'):
     what lights the photographs, what to capture, and which of the fit's spot terms it leaves out
     (:func:`unrendered`); ``face`` -1, as the trainer reports a light that is no spot."""
-    capture = {"flash": "a flash at the camera lighting its whole view (Tancik et al.; modelled at the camera's "
-                        "centre of projection with the projector spot's total flux, data/flash.py), in the person's "
-                        "photographs and the empty-room photograph alike; no projector spot",
-               "ambient": "the projector off: the room's own light only, in the person's photographs and the "
-                          "empty-room photograph alike"}[cfg.light]
+    from ..evaluate.methods import LIGHTS
+
+    capture = LIGHTS[cfg.light].capture
     return {"mode": cfg.light, "face": -1, "explain": f"light: no spot to aim; photograph with {capture}",
             "capture": capture, "not_rendered": unrendered(cfg)}
 
 
 def unrendered(cfg) -> dict[str, str]:
     """The fit's spot terms a fit without a spot leaves out, each with why (report and console)."""
-    light = {"flash": "the flash", "ambient": "the room's own light"}[cfg.light]
+    from ..evaluate.methods import LIGHTS
+
+    light = LIGHTS[cfg.light].blocked
     return {"spot": "no spot to choose or aim: the method lights none",
             "layers": "the room's static layers under the spot are not rendered: no capture drift (capture_preset "
                       "'ideal'), which render.variation models for the spot's light only",

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shutil
 
 import numpy as np
 import pytest
@@ -627,6 +628,22 @@ def test_a_hand_edited_report_is_refused(fitted, tmp_path, edit, words):
     (d / "report.json").write_text(json.dumps(rep))  # NaN written as JSON's non-standard NaN, as an editor might
     with pytest.raises(NlosError, match=words):
         load_room_model(d)
+
+
+def test_predict_refuses_weights_of_another_light(fitted, tmp_path, capsys):
+    """A spot room model whose report was swapped for a flash fit's (or the reverse: the weights are
+    the other's) is refused by ``nlos predict`` in one line, before any photograph is read."""
+    out, _ = fitted
+    d = tmp_path / "model"
+    d.mkdir()
+    for name in ("fit.json", "final.pt"):
+        shutil.copy(out / name, d / name)
+    rep = json.loads((out / "report.json").read_text())
+    rep.update(light={"mode": "flash"}, spot=None)
+    (d / "report.json").write_text(json.dumps(rep))
+    np.save(tmp_path / "one.npy", np.zeros((8, 8, 3), np.float32))
+    _fails(capsys, ["predict", str(d), str(tmp_path / "one.npy")], "trained under a projector spot",
+           "the flash at the camera")
 
 
 def test_jittered_footprint_renders_each_set_of_people_with_its_own_draw(room_dir):
