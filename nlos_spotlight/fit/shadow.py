@@ -27,7 +27,7 @@ import numpy as np
 
 from ..data.config import SET_BLOCK as BLOCK, SETS_PER_BLOCK as RELAY_SETS
 from ..errors import NlosError
-from .config import FitConfig
+from .config import BEFORE, FitConfig
 
 # BLOCK: people per shadow file (a worker's unit of work: one renderer precompute per block).
 # RELAY_SETS: sets of relay points a block draws (``shadow_relay='per-person'``): each set's static
@@ -141,7 +141,7 @@ def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int]
     return len(indices)
 
 
-BOUNCE_ADDED = {"bounce_near_field": 0.0, "bounce_body_samples": 0}
+BOUNCE_ADDED = {"bounce_near_field": 0.0, "bounce_body_samples": BEFORE["bounce_body_samples"]}
 """The bounce's render settings added since it was first stored, at the value blocks from before
 them were rendered with."""
 
