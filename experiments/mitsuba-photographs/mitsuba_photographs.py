@@ -10,6 +10,9 @@ that can run on different machines:
             other seeds give the Monte Carlo noise), until a deadline -> one ``.npz`` rewritten after
             every person. ``--spp 0`` measures the first person and picks the samples that fit
             ``--people`` people in the time given.
+``compare`` Mitsuba's photographs beside ours of the same people (``robustness.py``'s cached
+            camera photographs and fifth bounce): the gain that best maps ours onto Mitsuba's and
+            what is left, with the fifth bounce scaled by 0, 1 and ``BOUNCE_TAIL`` -> a text table.
 ``unpack``  the rendered people into ``benchmarks/robustness.py``'s cache
             (``CACHE/ROOM/mitsuba-d6-sppSPP/NNNNN.npz``): ``robustness.py --mitsuba SPP`` reads them.
 """
@@ -149,6 +152,47 @@ def unpack(photographs: Path, cache: Path, room: str, model: Path) -> None:
           f"--mitsuba-people {len(p['indices'])}")
 
 
+def _load(path: Path) -> dict[str, np.ndarray]:
+    with np.load(path, allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}
+
+
+def compare(photographs: Path, camera: Path, bounce: Path, out: Path | None) -> str:
+    """Ours (the camera photographs' person light and shadow, plus the fifth bounce times 0, 1 and
+    ``BOUNCE_TAIL``) against Mitsuba's on the same people: the least-squares gain over all people
+    (zero-mean Monte Carlo noise does not bias it) with a bootstrap 95% interval over the people, the
+    residual after that gain relative to Mitsuba's light with Mitsuba's own noise removed in quadrature,
+    and the median per-person correlation."""
+    from nlos_spotlight.render.bounce import BOUNCE_TAIL
+
+    m, cam, bn = _load(photographs), _load(camera), _load(bounce)
+    n = len(m["indices"])
+    if list(cam["indices"][:n]) != list(m["indices"]) or list(bn["indices"][:n]) != list(m["indices"]):
+        raise SystemExit("the camera photographs, the bounce and Mitsuba's are not of the same people")
+    mits = m["presence"].astype(np.float64).reshape(n, -1)
+    noise2 = (m["noise"] * np.linalg.norm(mits, axis=1)) ** 2  # each image's Monte Carlo error, squared
+    rng, rows = np.random.default_rng(0), []
+    lines = [f"{n} people, Mitsuba {json.loads(str(m['meta']))['spp']} samples a pixel, depth {MITSUBA_DEPTH}, "
+             f"its Monte Carlo noise median {100 * np.median(m['noise']):.1f}%",
+             "ours                                   gain (95%)            residual  correlation (median)"]
+    for k in (0.0, 1.0, BOUNCE_TAIL):
+        ours = (cam["cam_nlos"][:n] + k * bn["bounce_nlos"][:n] + cam["cam_nlos_shadow"][:n]).reshape(n, -1)
+        gain = lambda i: float((ours[i] * mits[i]).sum() / (ours[i] ** 2).sum())
+        boot = [gain(rng.integers(0, n, n)) for _ in range(2000)]
+        g = gain(np.arange(n))
+        resid = np.sqrt(max(float(((mits - g * ours) ** 2).sum() - noise2.sum()), 0.0) / (mits ** 2).sum())
+        corr = np.median([np.corrcoef(o, t)[0, 1] for o, t in zip(ours, mits)])
+        name = "three bounces + shadow" if k == 0 else f"+ the fifth bounce x{k:g}"
+        lines.append(f"{name:38s} {g:5.3f} ({np.percentile(boot, 2.5):.3f}-{np.percentile(boot, 97.5):.3f})"
+                     f"   {100 * resid:5.1f}%     {corr:.3f}")
+        rows.append({"bounce_scale": k, "gain": g, "residual": resid, "correlation": corr})
+    text = "\n".join(lines)
+    if out is not None:
+        out.write_text(text + "\n")
+    print(text)
+    return text
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="step", required=True)
@@ -171,11 +215,18 @@ def main() -> None:
     u.add_argument("--cache", type=Path, required=True)
     u.add_argument("--room", required=True)
     u.add_argument("--model", type=Path, required=True, help="the room model the photographs are of")
+    c = sub.add_parser("compare")
+    c.add_argument("--photographs", type=Path, required=True)
+    c.add_argument("--camera", type=Path, required=True, help="robustness.py's cached camera photographs (camera-*.npz)")
+    c.add_argument("--bounce", type=Path, required=True, help="robustness.py's cached fifth bounce (bounce-*.npz)")
+    c.add_argument("--out", type=Path, default=None)
     a = ap.parse_args()
     if a.step == "export":
         export(a.model, a.people, a.out, a.face)
     elif a.step == "render":
         render(a.bundle, a.out, a.spp, a.people, a.seconds, a.device, a.max_spp, a.start)
+    elif a.step == "compare":
+        compare(a.photographs, a.camera, a.bounce, a.out)
     else:
         unpack(a.photographs, a.cache, a.room, a.model)
 
