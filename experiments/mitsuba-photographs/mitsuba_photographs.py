@@ -186,6 +186,13 @@ def compare(photographs: Path, camera: Path, bounce: Path, out: Path | None) -> 
         lines.append(f"{name:38s} {g:5.3f} ({np.percentile(boot, 2.5):.3f}-{np.percentile(boot, 97.5):.3f})"
                      f"   {100 * resid:5.1f}%     {corr:.3f}")
         rows.append({"bounce_scale": k, "gain": g, "residual": resid, "correlation": corr})
+    three = (cam["cam_nlos"][:n] + cam["cam_nlos_shadow"][:n]).reshape(n, -1)
+    fifth = bn["bounce_nlos"][:n].reshape(n, -1)
+    joint = lambda i: np.linalg.lstsq(np.stack([three[i].ravel(), fifth[i].ravel()], 1), mits[i].ravel(), rcond=None)[0]
+    jb = np.array([joint(rng.integers(0, n, n)) for _ in range(500)])
+    j, lo, hi = joint(np.arange(n)), np.percentile(jb, 2.5, 0), np.percentile(jb, 97.5, 0)
+    lines.append(f"both at once: Mitsuba = {j[0]:.3f} ({lo[0]:.3f}-{hi[0]:.3f}) x (three bounces + shadow) + "
+                 f"{j[1]:.3f} ({lo[1]:.3f}-{hi[1]:.3f}) x the fifth bounce")
     text = "\n".join(lines)
     if out is not None:
         out.write_text(text + "\n")
