@@ -79,20 +79,20 @@ def _people(bundle: Path):
     return p["indices"], p["aim"], humans
 
 
-def _one(scene, human, aim, spp: int, k: int) -> tuple[np.ndarray, float]:
+def _one(scene, human, aim, spp: int, k: int, depth: int = MITSUBA_DEPTH) -> tuple[np.ndarray, float]:
     import dataclasses
 
     from nlos_spotlight.render.mitsuba_ref import mitsuba_nlos
 
     sc = dataclasses.replace(scene, human=human)
-    half = [mitsuba_nlos(sc, aim, spp // 2, seed=1000 * int(k) + 500 * h, max_depth=MITSUBA_DEPTH,
+    half = [mitsuba_nlos(sc, aim, spp // 2, seed=1000 * int(k) + 500 * h, max_depth=depth,
                          protocol="presence", integrator="ptracer") for h in (0, 1)]
     img = (half[0] + half[1]) / 2
     return img, float(np.linalg.norm(half[0] - half[1]) / 2 / np.linalg.norm(img))
 
 
 def render(bundle: Path, out: Path, spp: int, people: int, seconds: float, device: str, max_spp: int,
-           start: int = 0) -> None:
+           start: int = 0, depth: int = MITSUBA_DEPTH) -> None:
     from nlos_spotlight.render.mitsuba_ref import GPU_CHUNK_SPP, use_mitsuba
     from nlos_spotlight.scene.io import load_scene
 
@@ -114,13 +114,13 @@ def render(bundle: Path, out: Path, spp: int, people: int, seconds: float, devic
         if spp < 2 * chunk:
             raise SystemExit(f"{people} people do not fit in {seconds:.0f} s at {chunk} samples a pixel")
     imgs, noise, secs = [], [], []
-    meta = {"spp": spp, "depth": MITSUBA_DEPTH, "variant": mi.variant(), "integrator": "ptracer",
+    meta = {"spp": spp, "depth": depth, "variant": mi.variant(), "integrator": "ptracer",
             "protocol": "presence", "seed_rule": "1000 k + 500 h, h the half", "bundle": str(bundle)}
     for n in range(people):
         if time.perf_counter() - t0 > seconds:
             break
         ts = time.perf_counter()
-        img, e = _one(scene, humans[n], aim, spp, int(idx[n]))
+        img, e = _one(scene, humans[n], aim, spp, int(idx[n]), depth)
         imgs.append(img)
         noise.append(e)
         secs.append(time.perf_counter() - ts)
@@ -172,7 +172,8 @@ def compare(photographs: Path, camera: Path, bounce: Path, out: Path | None) -> 
     mits = m["presence"].astype(np.float64).reshape(n, -1)
     noise2 = (m["noise"] * np.linalg.norm(mits, axis=1)) ** 2  # each image's Monte Carlo error, squared
     rng, rows = np.random.default_rng(0), []
-    lines = [f"{n} people, Mitsuba {json.loads(str(m['meta']))['spp']} samples a pixel, depth {MITSUBA_DEPTH}, "
+    meta = json.loads(str(m["meta"]))
+    lines = [f"{n} people, Mitsuba {meta['spp']} samples a pixel, depth {meta['depth']}, "
              f"its Monte Carlo noise median {100 * np.median(m['noise']):.1f}%",
              "ours                                   gain (95%)            residual  correlation (median)"]
     for k in (0.0, 1.0, BOUNCE_TAIL):
@@ -215,6 +216,7 @@ def main() -> None:
     r.add_argument("--people", type=int, default=100)
     r.add_argument("--seconds", type=float, default=3600.0)
     r.add_argument("--device", default="auto", choices=("auto", "cpu", "cuda"))
+    r.add_argument("--depth", type=int, default=MITSUBA_DEPTH, help="Mitsuba's max_depth (4: our three bounces)")
     r.add_argument("--start", type=int, default=0, help="skip the first people (rendered elsewhere)")
     r.add_argument("--max-spp", type=int, default=1 << 22, help="at most this many samples a pixel (--spp 0)")
     u = sub.add_parser("unpack")
@@ -231,7 +233,7 @@ def main() -> None:
     if a.step == "export":
         export(a.model, a.people, a.out, a.face)
     elif a.step == "render":
-        render(a.bundle, a.out, a.spp, a.people, a.seconds, a.device, a.max_spp, a.start)
+        render(a.bundle, a.out, a.spp, a.people, a.seconds, a.device, a.max_spp, a.start, a.depth)
     elif a.step == "compare":
         compare(a.photographs, a.camera, a.bounce, a.out)
     else:

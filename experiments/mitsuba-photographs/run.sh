@@ -27,3 +27,10 @@ $PY experiments/mitsuba-photographs/mitsuba_photographs.py compare \
     --photographs docs/results/mitsuba-photographs/copyroom-d6-spp32768.npz \
     --camera out/robustness10/copyroom/camera-68-f8j-s8192.npz --bounce out/robustness10/copyroom/bounce-68-f8j-s4096-near1.npz \
     --out docs/results/mitsuba-photographs/copyroom-compare.txt
+# the first 8 people at depth 4 (our three bounces and the shadow's relay: the physics ours renders), 8,192 samples a pixel
+$PY experiments/mitsuba-photographs/mitsuba_photographs.py render --bundle out/mitsuba-bundle/copyroom --depth 4 \
+    --spp 8192 --people 8 --device cpu --out out/copyroom-mitsuba-d4-spp8192.npz
+$PY experiments/mitsuba-photographs/mitsuba_photographs.py compare \
+    --photographs docs/results/mitsuba-photographs/copyroom-d4-spp8192.npz \
+    --camera out/robustness10/copyroom/camera-68-f8j-s8192.npz --bounce out/robustness10/copyroom/bounce-68-f8j-s4096-near1.npz \
+    --out docs/results/mitsuba-photographs/copyroom-compare-d4.txt
