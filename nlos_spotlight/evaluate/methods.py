@@ -90,6 +90,11 @@ def fittable(m: Method) -> bool:
     return m.policy in FIT_POLICIES + UNAIMED and m.arch != FLOOR_NET and not m.overrides  # no network import
 
 
+def light_of(policy: str) -> str:
+    """What a policy's photographs are lit by: 'spot' (aimed), or the light of :data:`UNAIMED`."""
+    return policy if policy in UNAIMED else "spot"
+
+
 def unaimed_method(light: str) -> str:
     """The method ``nlos fit`` fits under a light without a spot (the first fittable one of it)."""
     return next(m.name for m in METHODS if m.policy == light and fittable(m))

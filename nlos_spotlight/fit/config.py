@@ -190,10 +190,9 @@ class FitConfig:
     def light(self) -> str:
         """What lights the photographs: 'spot' (aimed), or the policy of a method that lights none
         ('flash', 'ambient': ``evaluate.methods.UNAIMED``)."""
-        from ..evaluate.methods import UNAIMED, fit_method
+        from ..evaluate.methods import fit_method, light_of
 
-        policy = fit_method(self.method).policy
-        return policy if policy in UNAIMED else "spot"
+        return light_of(fit_method(self.method).policy)
 
     def _check_light(self) -> None:
         """Refuse, in one line, a setting that renders a spot's term when the method lights no spot."""

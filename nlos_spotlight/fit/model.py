@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import NlosError
-from ..evaluate.methods import LIGHTS
+from ..evaluate.methods import LIGHTS, light_of
 from .report import region_to_world
 
 
@@ -48,9 +48,7 @@ class RoomModel:
     def check_network(self, policy: str) -> None:
         """Refuse, in one line, weights trained under another light than the report's (a room model's
         ``final.pt`` swapped for another's): such a network reads photographs it never saw."""
-        from ..evaluate.methods import UNAIMED
-
-        light = policy if policy in UNAIMED else "spot"
+        light = light_of(policy)
         if light != self.light:
             said = lambda x: "a projector spot" if x == "spot" else LIGHTS[x].words
             raise NlosError(f"{self.path}: final.pt was trained under {said(light)} (policy {policy}), but report.json "
@@ -63,8 +61,6 @@ class RoomModel:
                  if self.light == "spot" else f"no spot: {LIGHTS[self.light].photograph}")
         return (f"room model {self.path}: {light}; capture: bursts of {self.burst_frames} frames of "
                 f"{1000 * self.exposure_s:.0f} ms, minus the empty-room burst (--background) in the same light")
-
-
 
 
 def load_room_model(path: str | Path) -> RoomModel | None:
