@@ -72,6 +72,7 @@ import numpy as np
 import torch
 
 from nlos_spotlight.errors import NlosError
+from nlos_spotlight.render.mitsuba_ref import PHOTOGRAPH_DEPTH
 from nlos_spotlight.fit.run import room_builder
 from nlos_spotlight.fit.shadow import PHI
 from nlos_spotlight.render.bounce import BOUNCE_TAIL
@@ -368,9 +369,8 @@ def fine_light(room: Room, cache: Path) -> dict[str, np.ndarray]:
     return out
 
 
-MITSUBA_DEPTH = 6
-"""Bounces of the Mitsuba photographs (ours: the spot's light reaches the body after one bounce and
-the camera after one more, plus the body's shadow on one relay bounce)."""
+MITSUBA_DEPTH = PHOTOGRAPH_DEPTH
+"""Bounces of the Mitsuba photographs (``render.mitsuba_ref.PHOTOGRAPH_DEPTH``)."""
 
 
 def mitsuba_people(room: Room, cache: Path, spp: int, count: int, progress: bool = True) -> dict[str, np.ndarray]:
@@ -382,7 +382,7 @@ def mitsuba_people(room: Room, cache: Path, spp: int, count: int, progress: bool
     file a person (resumable): ``mitsuba_presence`` (N, H, W, 3) and ``mitsuba_noise`` (N,), the
     relative L2 standard error of each image."""
     from nlos_spotlight.data.store import atomic_npz
-    from nlos_spotlight.render.mitsuba_ref import mitsuba_nlos
+    from nlos_spotlight.render.mitsuba_ref import mitsuba_photograph
     from nlos_spotlight.scene.format import Human
 
     d = cache / room.name / f"mitsuba-d{MITSUBA_DEPTH}-spp{spp}"
@@ -403,11 +403,9 @@ def mitsuba_people(room: Room, cache: Path, spp: int, count: int, progress: bool
         body, person, t = builder._person(specs[k], scene.hidden_region.floor_z)
         sc = dataclasses.replace(scene, human=Human("human.ply", np.asarray(specs[k]["params"].albedo, np.float64),
                                                    person.translated_mesh(t)))
-        half = [mitsuba_nlos(sc, room.aim, spp // 2, seed=1000 * k + 500 * h, max_depth=MITSUBA_DEPTH,
-                             protocol="presence", integrator="ptracer") for h in (0, 1)]
-        img = (half[0] + half[1]) / 2
+        img, e = mitsuba_photograph(sc, room.aim, spp, seed=1000 * k, max_depth=MITSUBA_DEPTH)
         out.append(img)
-        noise.append(float(np.linalg.norm(half[0] - half[1]) / 2 / np.linalg.norm(img)))
+        noise.append(e)
         atomic_npz(path, presence=img, noise=np.float64(noise[-1]))
         if progress:
             print(f"{room.name}: mitsuba {n + 1}/{count} people, {time.perf_counter() - t0:.0f} s, "

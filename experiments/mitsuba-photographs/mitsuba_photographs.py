@@ -6,7 +6,7 @@ that can run on different machines:
             ``people.npz``).
 ``render``  (a GPU when there is one; only Mitsuba, trimesh and the package needed): each person as
             ``benchmarks/robustness.py``'s ``mitsuba`` condition renders it (the room with the person
-            minus without, same seeds, the particle tracer at ``MITSUBA_DEPTH`` bounces; two halves at
+            minus without, same seeds, the particle tracer at ``PHOTOGRAPH_DEPTH`` bounces; two halves at
             other seeds give the Monte Carlo noise), until a deadline -> one ``.npz`` rewritten after
             every person. ``--spp 0`` measures the first person and picks the samples that fit
             ``--people`` people in the time given.
@@ -21,14 +21,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import shutil
 import time
 from pathlib import Path
 
 import numpy as np
 
-MITSUBA_DEPTH = 6  # as benchmarks/robustness.py's MITSUBA_DEPTH
+from nlos_spotlight.data.store import atomic_npz
+from nlos_spotlight.render.mitsuba_ref import PHOTOGRAPH_DEPTH
 
 
 def export(model: Path, people: int, out: Path, face: int | None) -> None:
@@ -68,31 +68,31 @@ def export(model: Path, people: int, out: Path, face: int | None) -> None:
     print(f"{len(idx)} held-out people of {model} -> {out}")
 
 
+def _load(path: Path) -> dict[str, np.ndarray]:
+    with np.load(path, allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}
+
+
 def _people(bundle: Path):
     from nlos_spotlight.scene.format import Human, TriMesh
 
-    with np.load(bundle / "people.npz", allow_pickle=False) as z:
-        p = {k: z[k] for k in z.files}
+    p = _load(bundle / "people.npz")
     ov, of = np.concatenate([[0], np.cumsum(p["num_vertices"])]), np.concatenate([[0], np.cumsum(p["num_faces"])])
     humans = [Human("human.ply", p["albedo"][n], TriMesh(p["vertices"][ov[n]:ov[n + 1]], p["faces"][of[n]:of[n + 1]]))
               for n in range(len(p["indices"]))]
     return p["indices"], p["aim"], humans
 
 
-def _one(scene, human, aim, spp: int, k: int, depth: int = MITSUBA_DEPTH) -> tuple[np.ndarray, float]:
+def _one(scene, human, aim, spp: int, k: int, depth: int = PHOTOGRAPH_DEPTH) -> tuple[np.ndarray, float]:
     import dataclasses
 
-    from nlos_spotlight.render.mitsuba_ref import mitsuba_nlos
+    from nlos_spotlight.render.mitsuba_ref import mitsuba_photograph
 
-    sc = dataclasses.replace(scene, human=human)
-    half = [mitsuba_nlos(sc, aim, spp // 2, seed=1000 * int(k) + 500 * h, max_depth=depth,
-                         protocol="presence", integrator="ptracer") for h in (0, 1)]
-    img = (half[0] + half[1]) / 2
-    return img, float(np.linalg.norm(half[0] - half[1]) / 2 / np.linalg.norm(img))
+    return mitsuba_photograph(dataclasses.replace(scene, human=human), aim, spp, seed=1000 * int(k), max_depth=depth)
 
 
 def render(bundle: Path, out: Path, spp: int, people: int, seconds: float, device: str, max_spp: int,
-           start: int = 0, depth: int = MITSUBA_DEPTH) -> None:
+           start: int = 0, depth: int = PHOTOGRAPH_DEPTH) -> None:
     from nlos_spotlight.render.mitsuba_ref import GPU_CHUNK_SPP, use_mitsuba
     from nlos_spotlight.scene.io import load_scene
 
@@ -124,10 +124,8 @@ def render(bundle: Path, out: Path, spp: int, people: int, seconds: float, devic
         imgs.append(img)
         noise.append(e)
         secs.append(time.perf_counter() - ts)
-        tmp = out.with_name(f".{out.name}.tmp.npz")
-        np.savez_compressed(tmp, presence=np.stack(imgs), noise=np.asarray(noise), indices=idx[:len(imgs)], aim=aim,
-                            seconds=np.asarray(secs), meta=np.array(json.dumps(meta)))
-        os.replace(tmp, out)
+        atomic_npz(out, presence=np.stack(imgs), noise=np.asarray(noise), indices=idx[:len(imgs)], aim=aim,
+                   seconds=np.asarray(secs), meta=np.array(json.dumps(meta)))
         print(f"{n + 1}/{people} people, {secs[-1]:.1f} s, Monte Carlo noise {100 * e:.1f}%", flush=True)
 
 
@@ -136,8 +134,7 @@ def unpack(photographs: Path, cache: Path, room: str, model: Path) -> None:
     from nlos_spotlight.fit.run import finished_model
     from nlos_spotlight.fit.train import heldout_indices
 
-    with np.load(photographs, allow_pickle=False) as z:
-        p = {k: z[k] for k in z.files}
+    p = _load(photographs)
     cfg, aim, _, _ = finished_model(model)
     want = heldout_indices(model, cfg)[:len(p["indices"])]
     if list(p["indices"]) != want or not np.allclose(p["aim"], aim, atol=1e-9):
@@ -146,15 +143,10 @@ def unpack(photographs: Path, cache: Path, room: str, model: Path) -> None:
     d = cache / room / f"mitsuba-d{meta['depth']}-spp{meta['spp']}"
     d.mkdir(parents=True, exist_ok=True)
     for img, e, k in zip(p["presence"], p["noise"], p["indices"]):
-        np.savez_compressed(d / f"{int(k):05d}.npz", presence=img, noise=np.float64(e))
+        atomic_npz(d / f"{int(k):05d}.npz", presence=img, noise=np.float64(e))
     print(f"{len(p['indices'])} people ({meta['variant']}, {meta['spp']} samples a pixel, Monte Carlo noise median "
           f"{100 * np.median(p['noise']):.1f}%) -> {d}; read with robustness.py --mitsuba {meta['spp']} "
           f"--mitsuba-people {len(p['indices'])}")
-
-
-def _load(path: Path) -> dict[str, np.ndarray]:
-    with np.load(path, allow_pickle=False) as z:
-        return {k: z[k] for k in z.files}
 
 
 def compare(photographs: Path, camera: Path, bounce: Path, out: Path | None) -> str:
@@ -171,7 +163,7 @@ def compare(photographs: Path, camera: Path, bounce: Path, out: Path | None) -> 
         raise SystemExit("the camera photographs, the bounce and Mitsuba's are not of the same people")
     mits = m["presence"].astype(np.float64).reshape(n, -1)
     noise2 = (m["noise"] * np.linalg.norm(mits, axis=1)) ** 2  # each image's Monte Carlo error, squared
-    rng, rows = np.random.default_rng(0), []
+    rng = np.random.default_rng(0)
     meta = json.loads(str(m["meta"]))
     lines = [f"{n} people, Mitsuba {meta['spp']} samples a pixel, depth {meta['depth']}, "
              f"its Monte Carlo noise median {100 * np.median(m['noise']):.1f}%",
@@ -186,7 +178,6 @@ def compare(photographs: Path, camera: Path, bounce: Path, out: Path | None) -> 
         name = "three bounces + shadow" if k == 0 else f"+ the fifth bounce x{k:g}"
         lines.append(f"{name:38s} {g:5.3f} ({np.percentile(boot, 2.5):.3f}-{np.percentile(boot, 97.5):.3f})"
                      f"   {100 * resid:5.1f}%     {corr:.3f}")
-        rows.append({"bounce_scale": k, "gain": g, "residual": resid, "correlation": corr})
     three = (cam["cam_nlos"][:n] + cam["cam_nlos_shadow"][:n]).reshape(n, -1)
     fifth = bn["bounce_nlos"][:n].reshape(n, -1)
     joint = lambda i: np.linalg.lstsq(np.stack([three[i].ravel(), fifth[i].ravel()], 1), mits[i].ravel(), rcond=None)[0]
@@ -216,7 +207,7 @@ def main() -> None:
     r.add_argument("--people", type=int, default=100)
     r.add_argument("--seconds", type=float, default=3600.0)
     r.add_argument("--device", default="auto", choices=("auto", "cpu", "cuda"))
-    r.add_argument("--depth", type=int, default=MITSUBA_DEPTH, help="Mitsuba's max_depth (4: our three bounces)")
+    r.add_argument("--depth", type=int, default=PHOTOGRAPH_DEPTH, help="Mitsuba's max_depth (4: our three bounces)")
     r.add_argument("--start", type=int, default=0, help="skip the first people (rendered elsewhere)")
     r.add_argument("--max-spp", type=int, default=1 << 22, help="at most this many samples a pixel (--spp 0)")
     u = sub.add_parser("unpack")

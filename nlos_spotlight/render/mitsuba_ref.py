@@ -168,6 +168,23 @@ def mitsuba_nlos(scene: Scene, aim_point: np.ndarray, spp: int, seed: int = 0, m
             - render_mitsuba(to_mitsuba(scene, aim_point, pb, max_depth, integrator=integrator, **kb), spp, seed))
 
 
+PHOTOGRAPH_DEPTH = 6
+"""``max_depth`` of a Mitsuba photograph of a person: two bounces past ours (the spot's light reaches
+the body after one bounce and the camera after one more, plus the body's shadow on one relay bounce)."""
+
+
+def mitsuba_photograph(scene: Scene, aim_point: np.ndarray, spp: int, seed: int,
+                       max_depth: int = PHOTOGRAPH_DEPTH) -> tuple[np.ndarray, float]:
+    """A person as a camera records them, by the particle tracer: the room with the person minus
+    without (``presence``, at the same seeds), in two halves of ``spp`` at seeds ``seed`` and ``seed +
+    500``. Returns (H, W, 3) their mean and its Monte Carlo noise, the relative L2 standard error
+    that the halves' difference gives."""
+    half = [mitsuba_nlos(scene, aim_point, spp // 2, seed=seed + 500 * h, max_depth=max_depth, protocol="presence",
+                         integrator="ptracer") for h in (0, 1)]
+    img = (half[0] + half[1]) / 2
+    return img, float(np.linalg.norm(half[0] - half[1]) / 2 / np.linalg.norm(img))
+
+
 def mitsuba_direct(scene: Scene, aim_point: np.ndarray, spp: int, seed: int = 0) -> np.ndarray:
     """Reference ``direct`` image (``max_depth=2``, no person)."""
     return render_mitsuba(to_mitsuba(scene, aim_point, False, max_depth=2), spp, seed)
