@@ -83,16 +83,18 @@ def _people(bundle: Path):
     return p["indices"], p["aim"], humans
 
 
-def _one(scene, human, aim, spp: int, k: int, depth: int = PHOTOGRAPH_DEPTH) -> tuple[np.ndarray, float]:
+def _one(scene, human, aim, spp: int, k: int, depth: int = PHOTOGRAPH_DEPTH,
+         protocol: str = "presence") -> tuple[np.ndarray, float]:
     import dataclasses
 
     from nlos_spotlight.render.mitsuba_ref import mitsuba_photograph
 
-    return mitsuba_photograph(dataclasses.replace(scene, human=human), aim, spp, seed=1000 * int(k), max_depth=depth)
+    return mitsuba_photograph(dataclasses.replace(scene, human=human), aim, spp, seed=1000 * int(k), max_depth=depth,
+                              protocol=protocol)
 
 
 def render(bundle: Path, out: Path, spp: int, people: int, seconds: float, device: str, max_spp: int,
-           start: int = 0, depth: int = PHOTOGRAPH_DEPTH) -> None:
+           start: int = 0, depth: int = PHOTOGRAPH_DEPTH, protocol: str = "presence") -> None:
     from nlos_spotlight.render.mitsuba_ref import GPU_CHUNK_SPP, use_mitsuba
     from nlos_spotlight.scene.io import load_scene
 
@@ -115,12 +117,12 @@ def render(bundle: Path, out: Path, spp: int, people: int, seconds: float, devic
             raise SystemExit(f"{people} people do not fit in {seconds:.0f} s at {chunk} samples a pixel")
     imgs, noise, secs = [], [], []
     meta = {"spp": spp, "depth": depth, "variant": mi.variant(), "integrator": "ptracer",
-            "protocol": "presence", "seed_rule": "1000 k + 500 h, h the half", "bundle": str(bundle)}
+            "protocol": protocol, "seed_rule": "1000 k + 500 h, h the half", "bundle": str(bundle)}
     for n in range(people):
         if time.perf_counter() - t0 > seconds:
             break
         ts = time.perf_counter()
-        img, e = _one(scene, humans[n], aim, spp, int(idx[n]), depth)
+        img, e = _one(scene, humans[n], aim, spp, int(idx[n]), depth, protocol)
         imgs.append(img)
         noise.append(e)
         secs.append(time.perf_counter() - ts)
@@ -208,6 +210,8 @@ def main() -> None:
     r.add_argument("--seconds", type=float, default=3600.0)
     r.add_argument("--device", default="auto", choices=("auto", "cpu", "cuda"))
     r.add_argument("--depth", type=int, default=PHOTOGRAPH_DEPTH, help="Mitsuba's max_depth (4: our three bounces)")
+    r.add_argument("--protocol", default="presence", choices=("presence", "scatter", "blocked"),
+                   help="the photograph (presence) or one part of it: the light off the body (scatter), the light it stops (blocked)")
     r.add_argument("--start", type=int, default=0, help="skip the first people (rendered elsewhere)")
     r.add_argument("--max-spp", type=int, default=1 << 22, help="at most this many samples a pixel (--spp 0)")
     u = sub.add_parser("unpack")
@@ -224,7 +228,7 @@ def main() -> None:
     if a.step == "export":
         export(a.model, a.people, a.out, a.face)
     elif a.step == "render":
-        render(a.bundle, a.out, a.spp, a.people, a.seconds, a.device, a.max_spp, a.start, a.depth)
+        render(a.bundle, a.out, a.spp, a.people, a.seconds, a.device, a.max_spp, a.start, a.depth, a.protocol)
     elif a.step == "compare":
         compare(a.photographs, a.camera, a.bounce, a.out)
     else:

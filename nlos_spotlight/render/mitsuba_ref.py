@@ -174,12 +174,13 @@ the body after one bounce and the camera after one more, plus the body's shadow 
 
 
 def mitsuba_photograph(scene: Scene, aim_point: np.ndarray, spp: int, seed: int,
-                       max_depth: int = PHOTOGRAPH_DEPTH) -> tuple[np.ndarray, float]:
+                       max_depth: int = PHOTOGRAPH_DEPTH, protocol: str = "presence") -> tuple[np.ndarray, float]:
     """A person as a camera records them, by the particle tracer: the room with the person minus
     without (``presence``, at the same seeds), in two halves of ``spp`` at seeds ``seed`` and ``seed +
     500``. Returns (H, W, 3) their mean and its Monte Carlo noise, the relative L2 standard error
-    that the halves' difference gives."""
-    half = [mitsuba_nlos(scene, aim_point, spp // 2, seed=seed + 500 * h, max_depth=max_depth, protocol="presence",
+    that the halves' difference gives. ``protocol``: one part of it instead (:func:`mitsuba_nlos`:
+    ``scatter``, the light off the body, or ``blocked``, the light the body stops)."""
+    half = [mitsuba_nlos(scene, aim_point, spp // 2, seed=seed + 500 * h, max_depth=max_depth, protocol=protocol,
                          integrator="ptracer") for h in (0, 1)]
     img = (half[0] + half[1]) / 2
     return img, float(np.linalg.norm(half[0] - half[1]) / 2 / np.linalg.norm(img))

@@ -32,6 +32,10 @@ class RenderSettings:
     """Area samples on the body."""
     shadow_samples: int = 4096
     """Area samples of the static surfaces relaying the spot light the person blocks (``nlos_shadow``)."""
+    shadow_depth: int = 4
+    """Mitsuba's ``max_depth`` ``nlos_shadow`` counts to: 4, the spot's first relay alone; more, also
+    the room's later relays of it, which the body stops on their way to the camera's points
+    (``render/tail.py``)."""
     bounce_body_samples: int = 0
     """Body samples of ``nlos_bounce``'s body <-> relay exchange: 0 the person's own quadrature (the
     reference), else this many stratified ones at the relay points' offset (``Person.resampled``):

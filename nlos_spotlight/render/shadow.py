@@ -90,12 +90,32 @@ class SpotShadow:
         self._vis: dict[int, torch.Tensor] = {}  # group -> static visibility (``_static_visibility``)
         self._group_cache: list | None = None  # ``_groups``: the renderer's sub-samples do not change
         self._spot_light: dict = {}  # spot vector -> the radiance it leaves on each h (``bounce.spot_radiance``)
+        self._tail: dict = {}  # spot vector -> the radiance the room's later relays leave on each h (``tail_light``)
 
     def bounce(self, y: torch.Tensor, person: Person, t: torch.Tensor) -> torch.Tensor:
         """(H, W, 3) ``nlos_bounce`` through these relay points (``render/bounce.py``)."""
         from .bounce import bounce_image
 
         return bounce_image(self, y, person, t)
+
+    def tail_light(self, y: torch.Tensor) -> torch.Tensor | None:
+        """(2, H, 3) radiance the room's later relays of ``y``'s light leave on each h, up to the
+        renderer's ``shadow_depth`` (``render/tail.py``); None at depth 4 (the first relay alone).
+        Built once per renderer and spot on the relay set of offset 0.5, so that every set, person
+        and worker sees the same room light."""
+        depth = self.r.settings.shadow_depth
+        if depth <= 4:
+            return None
+        key = tuple(torch.nonzero(y).flatten().tolist()), tuple(y[y != 0].tolist())
+        if key not in self._tail:
+            from .tail import room_light
+
+            rooms = self.r._room_light
+            if key not in rooms:
+                ref = self if self.offset == 0.5 else SpotShadow(self.r, 0.5)
+                rooms[key] = room_light(ref, y, depth)
+            self._tail[key] = rooms[key].at(self.h["pos"], self.h["normal"], self.rho)
+        return self._tail[key]
 
     def spot_sources(self, y: torch.Tensor) -> tuple[dict, torch.Tensor]:
         """The spot's sample points lit by ``y`` (``pos``, ``normal``, material, ``to_proj`` and
@@ -152,6 +172,9 @@ class SpotShadow:
         c_sides = torch.stack([c * front, c * (1 - front)])  # (2, S, K, 3)
         l_blk = rho * (c_sides * blocked1.unsqueeze(-1)).sum(1)  # (2, K, 3) radiance of h the body takes away
         l_rest = rho * c_sides.sum(1) - l_blk  # what still reaches h, which the body may block on the way out
+        tail = self.tail_light(y)
+        if tail is not None:  # the room's later relays reach h too
+            l_rest = l_rest + tail[:, keep]
         out = torch.zeros(len(rec.pixel), 3, device=r.device, dtype=r.dtype)
         ak = self.area[keep]
         at = torch.full((len(h["pos"]),), -1, dtype=torch.long, device=r.device)

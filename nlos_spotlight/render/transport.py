@@ -127,6 +127,7 @@ class Renderer:
         self.ambient_image = self._ambient()
         self._inter_cache: dict[int, torch.Tensor] = {}  # candidate -> its interreflection image
         self._spot_shadows: dict = {}  # (relay offset, footprint draw) -> its ``SpotShadow`` (relay points, cached visibility)
+        self._room_light: dict = {}  # spot vector -> the room's later relays of its light (``render/tail.py``)
 
     # ---------------------------------------------------------------- precompute
     def _t(self, x) -> torch.Tensor:
