@@ -35,7 +35,9 @@ draws for every condition:
   over one more static bounce as well (``nlos_bounce``, :func:`bounce_light`), magnitude 1, and
   with it scaled to every later bounce (magnitude ``--bounce-tail``, :data:`BOUNCE_TAIL`);
   ``--photograph-bounce`` puts that tail in the ``camera``, clothing and ``all`` photographs too
-  (every camera photograph holds it); ``--noise-draws`` averages every row over sensor-noise draws;
+  (every camera photograph holds it); ``shadow-tail`` (``--shadow-depth 10``): the camera
+  photographs with the light the body stops past its first relay as well (:func:`shadow_tail_light`),
+  which ``--photograph-bounce`` then puts in every camera photograph; ``--noise-draws`` averages every row over sensor-noise draws;
 * ``mitsuba`` (``--mitsuba SPP``): with-minus-without photographs by Mitsuba 3's particle tracer
   at 6 bounces (:func:`mitsuba_people`);
 * ``capture-all``: every capture effect at 1x ``tripod`` together, on the fit's person light;
@@ -80,7 +82,7 @@ from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.render.variation import WORLD_EFFECTS
 
 COLUMNS = ("room", "reading", "condition", "magnitude", "posture_accuracy", "posture3_accuracy", "error_cm", "people")
-CAMERA_CONDITIONS = ("bounce", "footprint-offsets", "camera-f32", "camera-fit-footprint", "camera-gain-corrected", "relay-offsets", "relay-averaged", "shadow-averaged", "pixel-integrated", "pixel-integrated-2x2", "shadow", "camera", "clothing-dark", "clothing-light",
+CAMERA_CONDITIONS = ("bounce", "shadow-tail", "footprint-offsets", "camera-f32", "camera-fit-footprint", "camera-gain-corrected", "relay-offsets", "relay-averaged", "shadow-averaged", "pixel-integrated", "pixel-integrated-2x2", "shadow", "camera", "clothing-dark", "clothing-light",
                      "all", "capture-all", "camera-mitsuba-people", "mitsuba")
 CLOTHING = {"clothing-dark": 0.05, "clothing-light": 0.9}
 SHADOW_SAMPLES = 1024
@@ -352,6 +354,31 @@ def bounce_light(room: Room, cache: Path) -> dict[str, np.ndarray]:
     return out
 
 
+def shadow_tail_light(room: Room, cache: Path, depth: int) -> dict[str, np.ndarray]:
+    """The held-out people's shadow past its first relay (``nlos_shadow`` at ``shadow_depth`` ``depth``
+    minus at 4, the same relay points: the room's later relays the body stops, ``render/tail.py``),
+    at the camera photographs' footprint and seed (cached): ``shadow_tail``."""
+    from nlos_spotlight.data.store import atomic_npz
+    from nlos_spotlight.render.settings import RenderSettings
+
+    path = cache / room.name / f"shadow-tail-{len(room.indices)}-f{CAMERA_FOOTPRINT}j-s{BOUNCE_RELAY}-d{depth}.npz"
+    if (got := cached(path, room)) is not None:
+        return {k: v for k, v in got.items() if k != "indices"}
+    builder, dcfg = room_builder(room.path, fit_config(room.path))
+    t0 = time.perf_counter()
+    got = [builder.rerender(room.indices, RenderSettings(
+        pixel_samples=dcfg.pixel_samples, pixel_footprint=CAMERA_FOOTPRINT, footprint_jitter=True,
+        spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples, shadow_samples=BOUNCE_RELAY,
+        shadow_depth=d, footprint_seed=CAMERA_SEED, relay_offset=0.5, device="cpu"), room.aim, ("nlos_shadow",),
+        one_footprint=True)["nlos_shadow"] for d in (4, depth)]
+    out = {"shadow_tail": got[1] - got[0], "shadow_tail_seconds": np.float64(time.perf_counter() - t0)}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_npz(path, indices=np.asarray(room.indices), **out)
+    print(f"{room.name}: the shadow past its first relay of {len(room.indices)} people in "
+          f"{out['shadow_tail_seconds']:.0f} s", flush=True)
+    return out
+
+
 def fine_light(room: Room, cache: Path) -> dict[str, np.ndarray]:
     """The held-out people's scattered light (``nlos``, ``nlos_ambient``) at :data:`FINE_FOOTPRINT`
     (cached): ``f32_nlos``, ``f32_nlos_ambient``."""
@@ -548,7 +575,8 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float], bounce_
     albedo = t.albedo.numpy()[:, None, None, :]
     c = people  # the camera photographs' parts (``camera_photographs``) and the 2 x 2 renders (``camera_people``)
     later = bounce_tail * c["bounce_nlos"] if photograph_bounce else 0.0  # scales with the clothing, as nlos does
-    cam = lambda a: with_person_light(t, room.spot, (c["cam_nlos"] + later) * (a / albedo) + c["cam_nlos_shadow"],
+    stopped = c["cam_nlos_shadow"] + (c["shadow_tail"] if photograph_bounce and "shadow_tail" in c else 0.0)
+    cam = lambda a: with_person_light(t, room.spot, (c["cam_nlos"] + later) * (a / albedo) + stopped,
                                       c["cam_nlos_ambient"] * ((1 - a) / (1 - albedo)))
     yield "pixel-integrated", 1.0, with_person_light(t, room.spot, c["cam_nlos"], c["cam_nlos_ambient"]), ideal
     yield "pixel-integrated-2x2", 1.0, with_person_light(t, room.spot, c["fine_nlos"], c["fine_nlos_ambient"]), ideal
@@ -589,11 +617,15 @@ def conditions(room: Room, people: dict | None, magnitudes: list[float], bounce_
         for k in sorted({1.0, bounce_tail}):  # scaled to every later bounce as Mitsuba measures them
             yield "bounce", k, with_person_light(t, room.spot, c["cam_nlos"] + k * c["bounce_nlos"] + c["cam_nlos_shadow"],
                                                  c["cam_nlos_ambient"]), ideal
+    if "shadow_tail" in c:  # the camera photographs (with the bounce's tail under --photograph-bounce) with the
+        # light the body stops past its first relay: beside ``bounce`` x tail, what the shadow's tail costs
+        yield "shadow-tail", 1.0, with_person_light(t, room.spot, c["cam_nlos"] + later + c["cam_nlos_shadow"]
+                                                    + c["shadow_tail"], c["cam_nlos_ambient"]), ideal
     yield "all", 1.0, cam(albedo), tripod.capture_effects
     if "mitsuba_presence" in c:  # the first people only: ours beside Mitsuba's on the same people
         n = len(c["mitsuba_presence"])
         few, pick = t.subset(torch.arange(n)), lambda a: a[:n]
-        ours = pick(c["cam_nlos"] + later + c["cam_nlos_shadow"])  # every bounce we render, as the camera rows
+        ours = pick(c["cam_nlos"] + later + stopped)  # every bounce we render, as the camera rows
         yield "camera-mitsuba-people", 1.0, with_person_light(few, room.spot, ours, pick(c["cam_nlos_ambient"])), ideal
         noisy = ours + mc_noise_like(ours, c["mitsuba_noise"], np.random.default_rng(MITSUBA_NOISE_SEED))
         yield "camera-mitsuba-noise", 1.0, with_person_light(few, room.spot, noisy, pick(c["cam_nlos_ambient"])), ideal
@@ -819,6 +851,9 @@ def main(argv=None) -> int:
                     help="also the bounce photographs with nlos_bounce times this (every later bounce); 1: not")
     ap.add_argument("--photograph-bounce", action="store_true", help="with --bounce, the camera photographs "
                     "(camera, clothing-*, all) hold the bounce at --bounce-tail, as a camera's do")
+    ap.add_argument("--shadow-depth", type=int, default=4, help="above 4, also the camera photographs with the light "
+                    "the body stops past its first relay, to this max_depth (shadow-tail; with --photograph-bounce in "
+                    "every camera photograph; about 3 s a person)")
     ap.add_argument("--camera-grid", action="store_true", help="the camera photographs as before jittering: "
                     "16 x 16 sub-samples at their cells' centres (biased about 3.6%% in the copy room)")
     ap.add_argument("--fine", action="store_true", help="also the camera photographs with the person's light at "
@@ -862,6 +897,8 @@ def main(argv=None) -> int:
             fine = fine_light(room, Path(args.cache)) if args.fine else {}
             if args.bounce:
                 fine.update(bounce_light(room, Path(args.cache)))
+            if args.shadow_depth > 4:
+                fine.update(shadow_tail_light(room, Path(args.cache), args.shadow_depth))
             people = {**fine, **camera_people(room, Path(args.cache), args.pixel_samples),
                       **camera_photographs(room, Path(args.cache), args.camera_draws, args.camera_grid),
                       **fit_reproduction(room, Path(args.cache))}

@@ -277,7 +277,7 @@ def _fit_flags(args: argparse.Namespace) -> dict:
     """The ``FitConfig`` fields the command line gives (those not given are absent)."""
     out = {k: getattr(args, k) for k in ("people", "policy", "seed", "workers", "capture_preset", "pixel_footprint",
                                          "shadow_samples", "shadow_relay", "bounce_scale", "bounce_body_samples",
-                                         "clothing", "world_variation", "ceiling_people", "render_device", "method")
+                                         "shadow_depth", "clothing", "world_variation", "ceiling_people", "render_device", "method")
            if getattr(args, k) is not None}
     if args.burst is not None:
         out["burst_frames"] = args.burst
@@ -562,6 +562,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "training photograph (default on; off: the recipe before it)")
     f.add_argument("--bounce-scale", type=float, help="training multiplies the stored fifth bounce by this "
                    "(default 1.9: every later bounce, as Mitsuba measures them; 1: the fifth alone)")
+    f.add_argument("--shadow-depth", type=int, help="the shadow counts the spot's light to this many bounces "
+                   "(Mitsuba's max_depth; default 10: also the room's later relays the body stops; 4: the first "
+                   "relay alone, the recipe before it)")
     f.add_argument("--bounce-body-samples", type=int, help="body samples of the bounce's exchange with the room "
                    "(default 1024; 0: the body's own quadrature, the recipe before it)")
     f.add_argument("--shadow-samples", type=int, help="static points relaying the spot light each body blocks "

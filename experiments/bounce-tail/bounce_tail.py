@@ -28,7 +28,22 @@ COLUMNS = ("scatter past the fourth / ours' fifth", "blocked at 4 / ours' shadow
            "blocked past the fourth / ours' shadow", "ours' shadow past the fourth / ours' shadow",
            "blocked past the fourth / ours' shadow past the fourth",
            "photograph / ours (three + shadow to the depth + 1.9 x fifth)",
-           "photograph / ours before (three + shadow + 1.9 x fifth)")
+           "photograph / ours before (three + shadow + 1.9 x fifth)",
+           "the room's power ratios r_0 + r_0 r_1 + ... (render.tail.RelayTransfer.ratios) to the depth")
+
+
+def power_tail(r, depth: int) -> float:
+    """T - 1 of a scalar tail model: the room's relay power ratios from the spot's first relay
+    (``RelayTransfer.ratios``), summed as a geometric series to ``depth``; a renderer at that
+    ``shadow_depth``."""
+    from nlos_spotlight.render.bounce import spot_radiance
+    from nlos_spotlight.render.shadow import SpotShadow
+
+    y = r.spot_vector(0)
+    sh = SpotShadow(r, 0.5)
+    room = sh.room(y)
+    ratios = room.transfer.ratios(spot_radiance(sh, y)[:, ::len(sh.h["pos"]) // len(room.pos)].cpu(), depth - 5)
+    return float(np.cumprod(ratios).sum())
 
 
 def gain(ours: np.ndarray, ref: np.ndarray) -> float:
@@ -77,7 +92,7 @@ def scenes(names: list[str], spp: int, res: int, depth: int) -> list[str]:
                 gain(sh, m["blocked", depth] - m["blocked", 4]), gain(sh, tail),
                 gain(tail, m["blocked", depth] - m["blocked", 4]),
                 gain(three + sh + tail + BOUNCE_TAIL * fifth, photo[depth]),
-                gain(three + sh + BOUNCE_TAIL * fifth, photo[depth])]
+                gain(three + sh + BOUNCE_TAIL * fifth, photo[depth]), power_tail(rd, depth)]
         lines.append(_row(name, [f"{v:.3f}" for v in vals]) + f"   ({time.perf_counter() - t0:.0f} s)")
         print(lines[-1], flush=True)
     return lines
@@ -88,9 +103,9 @@ def _load(path: Path) -> dict[str, np.ndarray]:
         return {k: z[k] for k in z.files}
 
 
-def ours_tail(bundle: Path, n: int, depth: int) -> np.ndarray:
+def ours_tail(bundle: Path, n: int, depth: int) -> tuple[np.ndarray, float]:
     """(n, H * W * 3) ours' shadow past the first relay (``shadow_depth`` ``depth`` minus 4, the same
-    relay points) of the bundle's first n people, at the fit's sampling."""
+    relay points) of the bundle's first n people, at the fit's sampling; the room's :func:`power_tail`."""
     import torch
 
     from nlos_spotlight.render.person import Person
@@ -112,7 +127,7 @@ def ours_tail(bundle: Path, n: int, depth: int) -> np.ndarray:
         with torch.no_grad():
             sh = [r.render(r.spot_vector(0), person, components=("nlos_shadow",))["nlos_shadow"].numpy() for r in rs]
         out.append((sh[1] - sh[0]).ravel())
-    return np.stack(out).astype(np.float64)
+    return np.stack(out).astype(np.float64), power_tail(rs[1], depth)
 
 
 def room(mitsuba: Path, room_name: str, spp: int, depth: int, camera: Path, bounce: Path, bundle: Path) -> list[str]:
@@ -133,7 +148,7 @@ def room(mitsuba: Path, room_name: str, spp: int, depth: int, camera: Path, boun
     three = cam["cam_nlos"][:n].reshape(n, -1)
     shadow = cam["cam_nlos_shadow"][:n].reshape(n, -1)
     fifth = bn["bounce_nlos"][:n].reshape(n, -1)
-    tail = ours_tail(bundle, n, depth)
+    tail, power = ours_tail(bundle, n, depth)
     pairs = [(fifth, scat[depth] - scat[4]), (shadow, m["blocked", 4]), (shadow, m["blocked", depth] - m["blocked", 4]),
              (shadow, tail), (tail, m["blocked", depth] - m["blocked", 4]),
              (three + shadow + tail + BOUNCE_TAIL * fifth, m["presence", depth]),
@@ -143,6 +158,7 @@ def room(mitsuba: Path, room_name: str, spp: int, depth: int, camera: Path, boun
     for p in pairs:
         boot = [gain(p[0][i], p[1][i]) for i in (rng.integers(0, n, n) for _ in range(2000))]
         vals.append(f"{gain(*p):.2f} ({np.percentile(boot, 2.5):.2f}-{np.percentile(boot, 97.5):.2f})")
+    vals.append(f"{power:.3f}")
     lines = [f"# python experiments/bounce-tail/bounce_tail.py room --room {room_name} --spp {spp} --depth {depth}: "
              f"{n} held-out people, Mitsuba {spp} samples a pixel",
              *legend(), _row(room_name, vals)]

@@ -66,6 +66,12 @@ class FitConfig:
     """Static points relaying the spot light each person's body blocks (``nlos_shadow``, in every real
     with-minus-without photograph), rendered under the chosen spot and added to every training
     photograph (``fit/shadow.py``); 0 leaves it out (the recipe before it)."""
+    shadow_depth: int = 10
+    """Mitsuba's ``max_depth`` the stored ``nlos_shadow`` counts to (``RenderSettings.shadow_depth``):
+    10 adds the room's later relays of the spot's light that the body stops (``render/tail.py``;
+    copy room: 0.44 of the first relay's shadow where Mitsuba finds 0.46 (0.40-0.55), and the whole
+    photograph within 1% of Mitsuba's at depth 10 where the shadow alone gives 0.81:
+    experiments/bounce-tail); 4: the first relay alone (the recipe before it)."""
     bounce: bool = True
     """Also each person's light over one more static bounce (``nlos_bounce``, ``render/bounce.py``:
     the room relaying the spot onto the body and the body's light to the camera; 24% of the
@@ -76,8 +82,9 @@ class FitConfig:
     bounce_scale: float = 1.9
     """What training multiplies the stored ``nlos_bounce`` by (with ``bounce``; moot without, and
     recorded as 1):
-    :data:`render.bounce.BOUNCE_TAIL` (1.9) stands in for every later bounce as Mitsuba measures
-    them, 1 the fifth bounce alone."""
+    :data:`render.bounce.BOUNCE_TAIL` (1.9) stands in for every later bounce of the light off the
+    body as Mitsuba measures them (1.8-2.0 in three reference scenes and the scanned copy room), 1
+    the fifth bounce alone."""
     bounce_body_samples: int = 1024
     """Body samples of the bounce's body <-> relay exchange (``RenderSettings.bounce_body_samples``;
     0: the body's own quadrature, the recipe before it). Copy room: the shadow step 1.9x faster,
@@ -131,6 +138,8 @@ class FitConfig:
         if isinstance(self.shadow_samples, bool) or not isinstance(self.shadow_samples, int) \
                 or not 0 <= self.shadow_samples <= 1_000_000:
             raise NlosError(f"fit: shadow_samples must be an integer from 0 (off) to 1000000, got {self.shadow_samples!r}")
+        if isinstance(self.shadow_depth, bool) or not isinstance(self.shadow_depth, int) or not 4 <= self.shadow_depth <= 16:
+            raise NlosError(f"--shadow-depth: expected an integer from 4 (the first relay alone) to 16, got {self.shadow_depth!r}")
         if self.bounce is not False and (self.bounce is not True or self.shadow_samples == 0):
             raise NlosError(f"--bounce: expected on or off, and on (the default) needs the shadow's relay points "
                             f"(shadow_samples > 0; add --bounce off), got {self.bounce!r} with shadow_samples "
@@ -218,11 +227,14 @@ class FitConfig:
         return self.transport_people + self.people + 2 * self.heldout
 
     def to_dict(self) -> dict:
-        """The record (``fit.json``'s settings). Without the bounce its settings are moot and recorded
-        as the recipe before them (:data:`BEFORE`), so a fit without it matches an older one's record."""
+        """The record (``fit.json``'s settings). Without the bounce (the shadow) its settings are moot
+        and recorded as the recipe before them (:data:`BEFORE`), so a fit without it matches an older
+        one's record."""
         d = dataclasses.asdict(self)
         if not self.bounce:
             d.update({k: BEFORE[k] for k in BOUNCE_SETTINGS})
+        if not self.shadow_samples:
+            d["shadow_depth"] = BEFORE["shadow_depth"]
         return d
 
     @classmethod
@@ -242,7 +254,7 @@ MAX_WORKERS = 256
 
 
 BEFORE = {"method": "ours", "capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "footprint_jitter": False, "shadow_samples": 0,
-          "clothing": "dataset", "bounce": False, "bounce_scale": 1.0, "bounce_body_samples": 0, "shadow_relay": "fixed", "world_variation": "ideal", "ceiling_people": 0}
+          "clothing": "dataset", "bounce": False, "bounce_scale": 1.0, "bounce_body_samples": 0, "shadow_depth": 4, "shadow_relay": "fixed", "world_variation": "ideal", "ceiling_people": 0}
 """What a room model fitted before each of these settings existed did (see their docstrings)."""
 
 

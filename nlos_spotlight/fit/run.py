@@ -39,7 +39,7 @@ RESUMABLE_CHANGES = ("workers", "render_device")
 """Settings a resumed fit may change: the process count (the output is byte-identical) and the
 rendering device (the same numbers to float rounding)."""
 TRAINING_ONLY = ("capture_preset", "project_nuisance", "epochs", "min_steps", "workers", "render_device", "shadow_samples", "shadow_relay", "bounce",
-                 "bounce_scale", "bounce_body_samples", "clothing", "world_variation", "ceiling_people", "method")
+                 "bounce_scale", "shadow_depth", "bounce_body_samples", "clothing", "world_variation", "ceiling_people", "method")
 """Settings that leave the room and its rendered people as they are (``--people-from`` may differ in them;
 also ``policy`` between fixed policies, whose spots every room stores: only the IEN adds spots)."""
 

@@ -128,7 +128,7 @@ def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int]
     out_p, fc = Path(out), FitConfig(**cfg)
     builder, dcfg = room_builder(out_p, fc)
     settings = dcfg.render_settings(shadow_samples=fc.shadow_samples, bounce_body_samples=fc.bounce_body_samples,
-                                    device=resolve_device(fc.render_device))
+                                    shadow_depth=fc.shadow_depth, device=resolve_device(fc.render_device))
     aim = np.asarray(aim, np.float64)
     if fc.world_variation == "ideal":
         got = builder.rerender(indices, settings, aim, components(fc), relay_offsets(indices, fc))
@@ -159,10 +159,10 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
     out, d = Path(out), shadow_dir(out)
     meta = {"face": int(spot["face"]), "aim": [float(a) for a in spot["aim"]], "shadow_samples": cfg.shadow_samples,
             "pixel_footprint": cfg.pixel_footprint, "footprint_jitter": cfg.footprint_jitter, "bounce": cfg.bounce,
-            "shadow_relay": cfg.shadow_relay,
+            "shadow_relay": cfg.shadow_relay, "shadow_depth": cfg.shadow_depth,
             "world_variation": cfg.world_variation,
             **({"bounce_near_field": NEAR_FIELD, "bounce_body_samples": cfg.bounce_body_samples} if cfg.bounce else {})}
-    stored = {"shadow_relay": "fixed", "world_variation": "ideal", "footprint_jitter": False, "bounce": False,
+    stored = {"shadow_relay": "fixed", "shadow_depth": 4, "world_variation": "ideal", "footprint_jitter": False, "bounce": False,
               **json.loads((d / "meta.json").read_text())} \
         if (d / "meta.json").exists() else meta
     for key, before in BOUNCE_ADDED.items():

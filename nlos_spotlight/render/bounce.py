@@ -47,8 +47,10 @@ BOUNCE_TAIL = 1.9
 """Everything past the fourth bounce (to depth 10) over ``nlos_bounce``, by Mitsuba 3's particle
 tracer in the three reference scenes: 1.83-2.07, its 4 x 4 blocks correlated 0.98 with
 ``nlos_bounce`` (1.81-1.99 before the distance floor; ``benchmarks/bounce_mitsuba.py --spp 32768
---res 16 --tail 10``, docs/results/bounce-mitsuba.txt). ``nlos_bounce`` times this stands in for
-all later bounces."""
+--res 16 --tail 10``, docs/results/bounce-mitsuba.txt); 1.87 (1.84-1.97) in the scanned copy room
+(experiments/bounce-tail). ``nlos_bounce`` times this stands in for all later bounces of the light
+off the body; the light the body stops over the later bounces is ``nlos_shadow``'s
+(``RenderSettings.shadow_depth``, ``render/tail.py``)."""
 
 
 def near_r2(sh: "SpotShadow") -> float:

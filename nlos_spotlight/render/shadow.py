@@ -108,14 +108,36 @@ class SpotShadow:
             return None
         key = tuple(torch.nonzero(y).flatten().tolist()), tuple(y[y != 0].tolist())
         if key not in self._tail:
-            from .tail import room_light
-
-            rooms = self.r._room_light
-            if key not in rooms:
-                ref = self if self.offset == 0.5 else SpotShadow(self.r, 0.5)
-                rooms[key] = room_light(ref, y, depth)
-            self._tail[key] = rooms[key].at(self.h["pos"], self.h["normal"], self.rho)
+            self._tail[key] = self.room(y).at(self.h["pos"], self.h["normal"], self.rho)
         return self._tail[key]
+
+    def room(self, y: torch.Tensor):
+        """The renderer's ``tail.RoomLight`` of spot vector ``y`` (built once, on the relay set of
+        offset 0.5, so that every set, person and worker sees the same room light)."""
+        from .tail import room_light
+
+        key = tuple(torch.nonzero(y).flatten().tolist()), tuple(y[y != 0].tolist())
+        rooms = self.r._room_light
+        if key not in rooms:
+            ref = self if self.offset == 0.5 else SpotShadow(self.r, 0.5)
+            rooms[key] = room_light(ref, y, self.r.settings.shadow_depth)
+        return rooms[key]
+
+    def later_deficit(self, y: torch.Tensor, body, lo: torch.Tensor, hi: torch.Tensor, src: dict,
+                      lit: torch.Tensor) -> torch.Tensor:
+        """(H, W, 3) (positive) the room's later relays that the body's blocking before their last
+        leg takes from the camera's points (``tail.RoomLight.deficit``)."""
+        from .bounce import relayed_to_camera
+
+        room = self.room(y)
+        cpu = lambda t: t.detach().cpu()
+        need = (pair_geometry(src["pos"], src["normal"], room.pos.to(src["pos"]), room.normal.to(src["pos"])).cos_a
+                * lit > 0)
+        blocks = lambda pa, na, pb, nb, sel: cpu(self._body_blocks(body, *(t.to(self.r.device, self.r.dtype)
+                                                                            for t in (pa, na, pb, nb)), sel.to(self.r.device)))
+        inc = room.deficit(blocks, cpu(lo), cpu(hi), cpu(src["pos"]), cpu(src["normal"]), cpu(need))
+        light = room.at(self.h["pos"], self.h["normal"], self.rho, inc)
+        return relayed_to_camera(self, body, light.to(self.r.device, self.r.dtype))
 
     def spot_sources(self, y: torch.Tensor) -> tuple[dict, torch.Tensor]:
         """The spot's sample points lit by ``y`` (``pos``, ``normal``, material, ``to_proj`` and
@@ -193,7 +215,10 @@ class SpotShadow:
                     and not rec.glossy[rows[b]].any() else self._second_leg  # the torch one: the reference
                 out[rows[b]] = leg(body, rec, rows[b], cos_c[rows[b]], hg, ak[kk], l_blk[:, kk], l_rest[:, kk], cross[b],
                                    None if vis is None else vis[b][:, sel])
-        return -r._pixels(rec.scale(out), rec)
+        img = -r._pixels(rec.scale(out), rec)
+        if tail is not None:
+            img = img - self.later_deficit(y, body, lo, hi, src, lit)
+        return img
 
     def _static_visibility(self, g: int, rows: torch.Tensor, hs: torch.Tensor, cos_c) -> torch.Tensor | None:
         """(rows, hs) static visibility V_S(h, x_p) of group ``g`` where x_p faces h, cast once per

@@ -14,8 +14,19 @@ first relay (``bounce.spot_radiance``),
 and the light of the later relays up to depth D is L_tail = rho sum_{n=2}^{D-3} I_n. It is computed
 once per room and spot on :data:`TAIL_POINTS` points and carried to any set of relay points by the
 incoming light I of the nearest points facing the same way (interreflected light is smooth), times
-their own albedo. Left out: the body stopping the light between two relay points, and its own light
-on them (``nlos_bounce``'s).
+their own albedo; the body stops it on the last leg, to the camera's points, as it does L_1.
+
+The body also stops the room's light before its last leg, and what it stops there the room no
+longer relays (:meth:`RoomLight.deficit`): on the transfer's points, the spot's first leg it
+blocks (Delta L_1 = rho sum_s c_s B_s, with B 1 where the body meets the segment) and the light
+between two points it blocks (Delta I(j) = sum_i L(i) G V_S A_i B_ij, L = L_1 + ... + L_{D-4}) are
+relayed on by the room,
+
+    Delta I_tot = sum_{m=0}^{D-6} (K)^m (K Delta L_1 + Delta I),    K: one relay (rho, then I),
+
+carried to the relay points as above and taken from the camera's points with nothing more blocked
+(``bounce.relayed_to_camera``). Left out: the body's own light on the relays (``nlos_bounce``'s)
+and the body stopping a deficit again.
 
 In the reference scenes and the scanned copy room the shadow past the first relay is not a fixed
 multiple of it (Mitsuba: 0.13 of it in the diffuse corner, 0.46 in the copy room), nor the room's
@@ -99,14 +110,47 @@ class RoomLight:
     """The incoming light of the room's later relays on :data:`TAIL_POINTS` points, carried to any
     relay point by its nearest transfer points facing its way (inverse-distance weights)."""
 
-    def __init__(self, pos: torch.Tensor, normal: torch.Tensor, incoming: torch.Tensor):
+    def __init__(self, pos: torch.Tensor, normal: torch.Tensor, incoming: torch.Tensor,
+                 transfer: "RelayTransfer | None" = None, leaving: torch.Tensor | None = None,
+                 first: torch.Tensor | None = None, depth: int = 10):
         from scipy.spatial import cKDTree
 
-        self.normal, self.incoming = normal, incoming
+        self.pos, self.normal, self.incoming = pos, normal, incoming
+        self.transfer, self.leaving, self.first, self.depth = transfer, leaving, first, depth
         self.tree = cKDTree(pos.numpy())
 
-    def at(self, pos: torch.Tensor, normal: torch.Tensor, rho: torch.Tensor) -> torch.Tensor:
-        """(2, N, 3) radiance the later relays leave on N points of albedo ``rho`` / pi."""
+    def deficit(self, blocks, lo: torch.Tensor, hi: torch.Tensor, src_pos: torch.Tensor, src_normal: torch.Tensor,
+                first_need: torch.Tensor) -> torch.Tensor:
+        """(2, M, 3) incoming light the room no longer relays to its points because the body (``blocks(pa,
+        na, pb, nb, sel) -> (Na, Nb)`` 1 where it meets a segment, box [lo, hi]) stops the spot's first
+        leg or a leg between two of them (module docstring), relayed on to ``depth``."""
+        from .shadow import cross_box
+
+        tr, pos, normal = self.transfer, self.pos, self.normal
+        sel = first_need & cross_box(src_pos, pos, lo, hi)
+        lost1 = torch.zeros_like(self.leaving)
+        if sel.any():
+            b1 = blocks(src_pos, src_normal, pos, normal, sel).to(self.first.dtype)  # (S, M)
+            lost1 = (self.first * b1.unsqueeze(0).unsqueeze(-1)).sum(1) * tr.rho.unsqueeze(0)
+        inc = tr.incoming(lost1)
+        cross = cross_box(pos, pos, lo, hi)
+        cross.fill_diagonal_(False)
+        if cross.any():
+            i, j = torch.nonzero(blocks(pos, normal, pos, normal, cross) > 0, as_tuple=True)  # legs it stops
+            for so in (0, 1):
+                for si in (0, 1):
+                    w = tr.blocks[so][si][i, j].to(inc.dtype).unsqueeze(-1)
+                    inc[si].index_add_(0, j, w * self.leaving[so][i])
+        total = inc.clone()
+        for _ in range(self.depth - 6):
+            inc = tr.incoming(inc * tr.rho.unsqueeze(0))
+            total += inc
+        return total
+
+    def at(self, pos: torch.Tensor, normal: torch.Tensor, rho: torch.Tensor,
+           incoming: torch.Tensor | None = None) -> torch.Tensor:
+        """(2, N, 3) radiance the later relays (or ``incoming`` (2, M, 3) light on the transfer's
+        points) leave on N points of albedo ``rho`` / pi."""
         dist, idx = self.tree.query(pos.detach().cpu().numpy(), min(NEIGHBOURS, self.tree.n))
         dist, idx = torch.as_tensor(dist, dtype=rho.dtype), torch.as_tensor(idx)
         cos = (normal.detach().cpu().unsqueeze(1) * self.normal[idx].to(rho.dtype)).sum(-1)  # (N, k)
@@ -114,7 +158,7 @@ class RoomLight:
         alone = w.sum(1) == 0  # nothing faces its way nearby: the nearest point alone
         w[alone, 0] = 1.0
         w = w / w.sum(1, keepdim=True)
-        inc = self.incoming.to(rho.dtype)[:, idx]  # (2, N, k, 3) by the transfer point's own sides
+        inc = (self.incoming if incoming is None else incoming).to(rho.dtype)[:, idx]  # (2, N, k, 3), its own sides
         same = (cos >= 0).unsqueeze(-1)  # a point facing the other way sees its sides swapped
         front = torch.where(same, inc[0], inc[1])
         back = torch.where(same, inc[1], inc[0])
@@ -135,12 +179,21 @@ def room_light(shadow, y: torch.Tensor, depth: int, points: int = TAIL_POINTS) -
     tr = RelayTransfer(pos, normal, area, shadow.rho[idx].cpu(), shadow.r.rays.occluded_rays,
                        NEAR_FIELD ** 2 * float(area.mean()))
     light = spot_radiance(shadow, y)[:, idx].cpu()
-    total = torch.zeros_like(light)
-    for _ in range(depth - 4):  # I_2 ... I_{depth-3}
+    total, leaving = torch.zeros_like(light), torch.zeros_like(light)
+    for n in range(depth - 4):  # I_2 ... I_{depth-3}; L_1 ... L_{depth-4} leave the points
+        leaving += light
         inc = tr.incoming(light)
         total += inc
         light = inc * tr.rho.unsqueeze(0)
-    return RoomLight(pos, normal, total)
+    src, lit = shadow.spot_sources(y)  # the spot's first leg to each point, per source, both sides
+    geo = pair_geometry(src["pos"], src["normal"], shadow.h["pos"][idx], shadow.h["normal"][idx])
+    need = geo.cos_a * lit > 0
+    vs = shadow.r._visible(shadow.r.rays, src["pos"], src["normal"], shadow.h["pos"][idx], shadow.h["normal"][idx],
+                           need, geo)
+    c = shadow.first_leg(src, geo.dir_ab, geo.g * vs)  # (S, M, 3)
+    front = (geo.cos_b > 0).to(c.dtype).unsqueeze(-1)
+    first = torch.stack([c * front, c * (1 - front)]).cpu()  # (2, S, M, 3)
+    return RoomLight(pos, normal, total, tr, leaving, first, depth)
 
 
 __all__ = ["RelayTransfer", "RoomLight", "TAIL_POINTS", "room_light"]

@@ -419,7 +419,7 @@ def test_shadow_step_stores_each_persons_blocked_light(fitted):
     k = int(np.argmin(sh.reshape(len(sh), -1).sum(1)))  # the person who blocks the most
     settings = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=TINY.pixel_footprint,
                               spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
-                              shadow_samples=TINY.shadow_samples, device="cpu")
+                              shadow_samples=TINY.shadow_samples, shadow_depth=TINY.shadow_depth, device="cpu")
     idx = [TINY.transport_people + k]
     offsets = relay_offsets(idx, TINY)  # each person's own relay points
     assert meta["shadow_relay"] == "per-person" and offsets is not None
@@ -490,7 +490,7 @@ def test_world_variation_trains_on_each_person_in_a_drawn_world(fitted, tmp_path
     builder = SceneBuilder(dcfg, plan(dcfg)[0], dest / "data")
     settings = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=TINY.pixel_footprint,
                               spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
-                              shadow_samples=TINY.shadow_samples, device="cpu")
+                              shadow_samples=TINY.shadow_samples, shadow_depth=TINY.shadow_depth, device="cpu")
     i = 3
     k = first[i]
     world, world_aim, drawn = mismatched_world(builder.room_scene(), aim, preset("tripod").world_effects,
