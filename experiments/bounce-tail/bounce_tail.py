@@ -6,6 +6,7 @@ the body stops, by Mitsuba 3 against ours (issue 35: what ``--bounce-scale`` sho
             (the black person minus no person: the light the body stops), same seeds; ours
             ``nlos``, ``nlos_shadow``, ``nlos_bounce`` and the room's relay ratios
             (``render.tail.room_tail``) -> a text table.
+``cost``    the time a person of the shadow to depth 10 against 4, on a bundle's people.
 ``room``    a fitted room's held-out people from ``experiments/mitsuba-photographs`` files
             (``presence`` and ``blocked`` at depths 4 and ``--depth``, same seeds) beside ours of the
             same people (``benchmarks/robustness.py``'s cached camera photographs and fifth bounce)
@@ -166,6 +167,46 @@ def room(mitsuba: Path, room_name: str, spp: int, depth: int, camera: Path, boun
     return lines
 
 
+def cost(bundle: Path, people: int) -> list[str]:
+    """Seconds a person of ``nlos_shadow`` at depth 4 and 10 (one relay set, after a first person),
+    and of building the room's transfer, in one run on this machine's threads."""
+    import torch
+
+    from nlos_spotlight.render.person import Person
+    from nlos_spotlight.render.shadow import SpotShadow
+    from nlos_spotlight.render.transport import Renderer, RenderSettings
+    from nlos_spotlight.scene.format import TriMesh
+    from nlos_spotlight.scene.io import load_scene
+
+    scene = load_scene(bundle / "room")
+    scene.human = None
+    p = _load(bundle / "people.npz")
+    aim = np.asarray(p["aim"]).reshape(1, 3)
+    ov, of = np.concatenate([[0], np.cumsum(p["num_vertices"])]), np.concatenate([[0], np.cumsum(p["num_faces"])])
+    bodies = [Person.from_mesh(TriMesh(p["vertices"][ov[k]:ov[k + 1]], p["faces"][of[k]:of[k + 1]]), p["albedo"][k],
+                               1500, "faces") for k in range(people + 1)]
+    base = RenderSettings(pixel_footprint=8, shadow_samples=4096, person_samples=1500)
+    per, build = {}, 0.0
+    for d in (4, 10):
+        r = Renderer(scene, dataclasses.replace(base, shadow_depth=d), aim_points=aim)
+        y = r.spot_vector(0)
+        with torch.no_grad():
+            if d > 4:
+                t0 = time.perf_counter()
+                SpotShadow(r, 0.5).room(y)
+                build = time.perf_counter() - t0
+            r.render(y, bodies[0], components=("nlos_shadow",))  # the relay set's static visibility
+            t0 = time.perf_counter()
+            for b in bodies[1:]:
+                r.render(y, b, components=("nlos_shadow",))
+        per[d] = (time.perf_counter() - t0) / people
+    lines = [f"# python experiments/bounce-tail/bounce_tail.py cost --people {people} ({torch.get_num_threads()} threads)",
+             f"nlos_shadow a person: depth 4 {per[4]:.2f} s, depth 10 {per[10]:.2f} s (x{per[10] / per[4]:.2f}); "
+             f"the room's transfer (once per renderer and spot) {build:.1f} s"]
+    print("\n".join(lines), flush=True)
+    return lines
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="step", required=True)
@@ -184,9 +225,15 @@ def main() -> None:
     r.add_argument("--bounce", type=Path, required=True, help="robustness.py's cached fifth bounce (bounce-*.npz)")
     r.add_argument("--bundle", type=Path, required=True, help="mitsuba_photographs.py export's bundle of the room")
     r.add_argument("--out", type=Path, default=None)
+    c = sub.add_parser("cost")
+    c.add_argument("--bundle", type=Path, required=True, help="mitsuba_photographs.py export's bundle of the room")
+    c.add_argument("--people", type=int, default=6)
+    c.add_argument("--out", type=Path, default=None)
     a = ap.parse_args()
     if a.step == "scenes":
         lines = scenes(a.scenes.split(","), a.spp, a.res, a.depth)
+    elif a.step == "cost":
+        lines = cost(a.bundle, a.people)
     else:
         lines = room(a.mitsuba, a.room, a.spp, a.depth, a.camera, a.bounce, a.bundle)
     if a.out is not None:

@@ -21,3 +21,5 @@ done
 $PY experiments/bounce-tail/bounce_tail.py room --mitsuba $M --room copyroom --spp 8192 \
     --camera out/robustness10/copyroom/camera-68-f8j-s8192.npz --bounce out/robustness10/copyroom/bounce-68-f8j-s4096-near1.npz \
     --bundle out/mitsuba-bundle/copyroom --out docs/results/bounce-tail/copyroom.txt
+# what the shadow to depth 10 costs a person, beside depth 4
+$PY experiments/bounce-tail/bounce_tail.py cost --bundle out/mitsuba-bundle/copyroom --people 6 --out docs/results/bounce-tail/cost.txt

@@ -320,6 +320,12 @@ def test_config_checks():
     for bad in ({"bounce_scale": 0.0}, {"bounce_scale": float("nan")}, {"bounce_scale": 11.0}):
         with pytest.raises(Exception, match="--bounce-scale"):
             FitConfig(**bad)
+    for bad in ({"shadow_depth": 3}, {"shadow_depth": 17}, {"shadow_depth": 6.0}, {"shadow_depth": True}):
+        with pytest.raises(Exception, match="--shadow-depth"):
+            FitConfig(**bad)
+    assert FitConfig().shadow_depth == 10  # the room's later relays of the spot's light, which the body stops too
+    no_shadow = FitConfig(shadow_samples=0, bounce=False).to_dict()  # moot without the shadow: recorded as before it
+    assert no_shadow["shadow_depth"] == BEFORE["shadow_depth"] == 4
     from nlos_spotlight.render.bounce import BOUNCE_TAIL
 
     cfg = FitConfig()  # the default recipe trains on every later bounce, as Mitsuba measures them
