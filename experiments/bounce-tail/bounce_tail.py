@@ -168,7 +168,8 @@ def room(mitsuba: Path, room_name: str, spp: int, depth: int, camera: Path, boun
 
 
 def cost(bundle: Path, people: int) -> list[str]:
-    """Seconds a person of ``nlos_shadow`` at depth 4 and 10 (one relay set, after a first person),
+    """Seconds a person of the fit's shadow step (``nlos_shadow`` and ``nlos_bounce``, 1,024 body
+    samples for the bounce) with the shadow at depth 4 and 10 (one relay set, after a first person),
     and of building the room's transfer, in one run on this machine's threads."""
     import torch
 
@@ -185,7 +186,8 @@ def cost(bundle: Path, people: int) -> list[str]:
     ov, of = np.concatenate([[0], np.cumsum(p["num_vertices"])]), np.concatenate([[0], np.cumsum(p["num_faces"])])
     bodies = [Person.from_mesh(TriMesh(p["vertices"][ov[k]:ov[k + 1]], p["faces"][of[k]:of[k + 1]]), p["albedo"][k],
                                1500, "faces") for k in range(people + 1)]
-    base = RenderSettings(pixel_footprint=8, shadow_samples=4096, person_samples=1500)
+    base = RenderSettings(pixel_footprint=8, shadow_samples=4096, person_samples=1500, bounce_body_samples=1024)
+    comps = ("nlos_shadow", "nlos_bounce")
     per, build = {}, 0.0
     for d in (4, 10):
         r = Renderer(scene, dataclasses.replace(base, shadow_depth=d), aim_points=aim)
@@ -195,13 +197,14 @@ def cost(bundle: Path, people: int) -> list[str]:
                 t0 = time.perf_counter()
                 SpotShadow(r, 0.5).room(y)
                 build = time.perf_counter() - t0
-            r.render(y, bodies[0], components=("nlos_shadow",))  # the relay set's static visibility
+            r.render(y, bodies[0], components=comps)  # the relay set's static visibility
             t0 = time.perf_counter()
             for b in bodies[1:]:
-                r.render(y, b, components=("nlos_shadow",))
+                r.render(y, b, components=comps)
         per[d] = (time.perf_counter() - t0) / people
     lines = [f"# python experiments/bounce-tail/bounce_tail.py cost --people {people} ({torch.get_num_threads()} threads)",
-             f"nlos_shadow a person: depth 4 {per[4]:.2f} s, depth 10 {per[10]:.2f} s (x{per[10] / per[4]:.2f}); "
+             f"the shadow step a person (nlos_shadow + nlos_bounce): shadow to depth 4 {per[4]:.2f} s, to depth 10 "
+             f"{per[10]:.2f} s (x{per[10] / per[4]:.2f}); "
              f"the room's transfer (once per renderer and spot) {build:.1f} s"]
     print("\n".join(lines), flush=True)
     return lines
