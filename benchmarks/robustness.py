@@ -37,7 +37,8 @@ draws for every condition:
   ``--photograph-bounce`` puts that tail in the ``camera``, clothing and ``all`` photographs too
   (every camera photograph holds it); ``shadow-tail`` (``--shadow-depth 10``): the camera
   photographs with the light the body stops past its first relay as well (:func:`shadow_tail_light`),
-  which ``--photograph-bounce`` then puts in every camera photograph; ``--noise-draws`` averages every row over sensor-noise draws;
+  which ``--photograph-bounce`` then puts in every camera photograph; ``--noise-draws`` averages
+  every row over sensor-noise draws;
 * ``mitsuba`` (``--mitsuba SPP``): with-minus-without photographs by Mitsuba 3's particle tracer
   at 6 bounces (:func:`mitsuba_people`);
 * ``capture-all``: every capture effect at 1x ``tripod`` together, on the fit's person light;

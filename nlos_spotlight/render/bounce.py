@@ -62,7 +62,9 @@ def spot_radiance(sh: "SpotShadow", y: torch.Tensor) -> torch.Tensor:
     """(2, H, 3) radiance the spot leaves on each relay point's front [0] and back [1] side, through
     static visibility only; kept per spot vector (it does not depend on the person)."""
     r, h = sh.r, sh.h
-    key = tuple(torch.nonzero(y).flatten().tolist()), tuple(y[y != 0].tolist())
+    from .shadow import spot_key
+
+    key = spot_key(y)
     cache = sh._spot_light
     if key in cache:
         return cache[key]

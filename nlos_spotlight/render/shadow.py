@@ -75,6 +75,11 @@ def two_sided(m: torch.Tensor, side: torch.Tensor, light: torch.Tensor) -> torch
     return (m * side) @ light[0] + (m * (1 - side)) @ light[1]
 
 
+def spot_key(y: torch.Tensor) -> tuple:
+    """A spot vector as a cache key (its support and weights): what a renderer keeps per spot."""
+    return tuple(torch.nonzero(y).flatten().tolist()), tuple(y[y != 0].tolist())
+
+
 class SpotShadow:
     """Static sample points h of a renderer's scene (``shadow_samples`` strata of the static area,
     shifted by ``offset``) and the blocked light through them. One fixed set for every person makes
@@ -100,13 +105,11 @@ class SpotShadow:
 
     def tail_light(self, y: torch.Tensor) -> torch.Tensor | None:
         """(2, H, 3) radiance the room's later relays of ``y``'s light leave on each h, up to the
-        renderer's ``shadow_depth`` (``render/tail.py``); None at depth 4 (the first relay alone).
-        Built once per renderer and spot on the relay set of offset 0.5, so that every set, person
-        and worker sees the same room light."""
-        depth = self.r.settings.shadow_depth
-        if depth <= 4:
+        renderer's ``shadow_depth`` (``render/tail.py``, :meth:`room`); None at depth 4 (the first
+        relay alone)."""
+        if self.r.settings.shadow_depth <= 4:
             return None
-        key = tuple(torch.nonzero(y).flatten().tolist()), tuple(y[y != 0].tolist())
+        key = spot_key(y)
         if key not in self._tail:
             self._tail[key] = self.room(y).at(self.h["pos"], self.h["normal"], self.rho)
         return self._tail[key]
@@ -116,26 +119,23 @@ class SpotShadow:
         offset 0.5, so that every set, person and worker sees the same room light)."""
         from .tail import room_light
 
-        key = tuple(torch.nonzero(y).flatten().tolist()), tuple(y[y != 0].tolist())
+        key = spot_key(y)
         rooms = self.r._room_light
         if key not in rooms:
             ref = self if self.offset == 0.5 else SpotShadow(self.r, 0.5)
             rooms[key] = room_light(ref, y, self.r.settings.shadow_depth)
         return rooms[key]
 
-    def later_deficit(self, y: torch.Tensor, body, lo: torch.Tensor, hi: torch.Tensor, src: dict,
-                      lit: torch.Tensor) -> torch.Tensor:
+    def later_deficit(self, y: torch.Tensor, body, lo: torch.Tensor, hi: torch.Tensor, src: dict) -> torch.Tensor:
         """(H, W, 3) (positive) the room's later relays that the body's blocking before their last
-        leg takes from the camera's points (``tail.RoomLight.deficit``)."""
+        leg takes from the camera's points (``tail.RoomLight.deficit``); ``src``: the spot's sources."""
         from .bounce import relayed_to_camera
 
         room = self.room(y)
         cpu = lambda t: t.detach().cpu()
-        need = (pair_geometry(src["pos"], src["normal"], room.pos.to(src["pos"]), room.normal.to(src["pos"])).cos_a
-                * lit > 0)
         blocks = lambda pa, na, pb, nb, sel: cpu(self._body_blocks(body, *(t.to(self.r.device, self.r.dtype)
                                                                             for t in (pa, na, pb, nb)), sel.to(self.r.device)))
-        inc = room.deficit(blocks, cpu(lo), cpu(hi), cpu(src["pos"]), cpu(src["normal"]), cpu(need))
+        inc = room.deficit(blocks, cpu(lo), cpu(hi), cpu(src["pos"]), cpu(src["normal"]))
         light = room.at(self.h["pos"], self.h["normal"], self.rho, inc)
         return relayed_to_camera(self, body, light.to(self.r.device, self.r.dtype))
 
@@ -217,7 +217,7 @@ class SpotShadow:
                                    None if vis is None else vis[b][:, sel])
         img = -r._pixels(rec.scale(out), rec)
         if tail is not None:
-            img = img - self.later_deficit(y, body, lo, hi, src, lit)
+            img = img - self.later_deficit(y, body, lo, hi, src)
         return img
 
     def _static_visibility(self, g: int, rows: torch.Tensor, hs: torch.Tensor, cos_c) -> torch.Tensor | None:

@@ -29,8 +29,8 @@ carried to the relay points as above and taken from the camera's points with not
 and the body stopping a deficit again.
 
 In the reference scenes and the scanned copy room the shadow past the first relay is not a fixed
-multiple of it (Mitsuba: 0.13 of it in the diffuse corner, 0.46 in the copy room), nor the room's
-power ratio (0.32 and 0.37 by this transfer): it depends on where the spot's and the room's light
+multiple of it (Mitsuba: 0.12 of it in the diffuse corner, 0.46 in the copy room), nor the room's
+power ratio (0.31 and 0.38 by this transfer): it depends on where the spot's and the room's light
 come from, so it is rendered (experiments/bounce-tail).
 
 Shapes:
@@ -113,22 +113,27 @@ class RoomLight:
 
     def __init__(self, pos: torch.Tensor, normal: torch.Tensor, incoming: torch.Tensor,
                  transfer: "RelayTransfer | None" = None, leaving: torch.Tensor | None = None,
-                 first: torch.Tensor | None = None, depth: int = 10):
+                 first: torch.Tensor | None = None, first_need: torch.Tensor | None = None, depth: int = 10):
+        """``incoming`` (2, M, 3) the later relays' light arriving at the points; for
+        :meth:`deficit`: the ``transfer``, the light ``leaving`` the points (2, M, 3), the spot's
+        first leg to them per source ``first`` (2, S, M, 3) and which of those legs carry light
+        ``first_need`` (S, M)."""
         from scipy.spatial import cKDTree
 
         self.pos, self.normal, self.incoming = pos, normal, incoming
-        self.transfer, self.leaving, self.first, self.depth = transfer, leaving, first, depth
+        self.transfer, self.leaving, self.first, self.first_need = transfer, leaving, first, first_need
+        self.depth = depth
         self.tree = cKDTree(pos.numpy())
 
-    def deficit(self, blocks, lo: torch.Tensor, hi: torch.Tensor, src_pos: torch.Tensor, src_normal: torch.Tensor,
-                first_need: torch.Tensor) -> torch.Tensor:
+    def deficit(self, blocks, lo: torch.Tensor, hi: torch.Tensor, src_pos: torch.Tensor,
+                src_normal: torch.Tensor) -> torch.Tensor:
         """(2, M, 3) incoming light the room no longer relays to its points because the body (``blocks(pa,
         na, pb, nb, sel) -> (Na, Nb)`` 1 where it meets a segment, box [lo, hi]) stops the spot's first
         leg or a leg between two of them (module docstring), relayed on to ``depth``."""
         from .shadow import cross_box
 
         tr, pos, normal = self.transfer, self.pos, self.normal
-        sel = first_need & cross_box(src_pos, pos, lo, hi)
+        sel = self.first_need & cross_box(src_pos, pos, lo, hi)
         lost1 = torch.zeros_like(self.leaving)
         if sel.any():
             b1 = blocks(src_pos, src_normal, pos, normal, sel).to(self.first.dtype)  # (S, M)
@@ -181,7 +186,7 @@ def room_light(shadow, y: torch.Tensor, depth: int, points: int = TAIL_POINTS) -
                        NEAR_FIELD ** 2 * float(area.mean()))
     light = spot_radiance(shadow, y)[:, idx].cpu()
     total, leaving = torch.zeros_like(light), torch.zeros_like(light)
-    for n in range(depth - 4):  # I_2 ... I_{depth-3}; L_1 ... L_{depth-4} leave the points
+    for _ in range(depth - 4):  # I_2 ... I_{depth-3}; L_1 ... L_{depth-4} leave the points
         leaving += light
         inc = tr.incoming(light)
         total += inc
@@ -194,7 +199,7 @@ def room_light(shadow, y: torch.Tensor, depth: int, points: int = TAIL_POINTS) -
     c = shadow.first_leg(src, geo.dir_ab, geo.g * vs)  # (S, M, 3)
     front = (geo.cos_b > 0).to(c.dtype).unsqueeze(-1)
     first = torch.stack([c * front, c * (1 - front)]).cpu()  # (2, S, M, 3)
-    return RoomLight(pos, normal, total, tr, leaving, first, depth)
+    return RoomLight(pos, normal, total, tr, leaving, first, need.cpu(), depth)
 
 
 __all__ = ["RelayTransfer", "RoomLight", "TAIL_POINTS", "room_light"]
