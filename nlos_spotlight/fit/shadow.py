@@ -67,6 +67,18 @@ def _readable(path: Path, indices: list[int], comps: tuple[str, ...] = ("nlos_sh
         return False
 
 
+DEPTH_COMPONENTS = ("nlos_shadow",)
+"""What ``shadow_depth`` changes: another depth renders these again and keeps a block's others (the
+bounce, a drawn world's light), a quarter of the step's time."""
+
+
+def _block_depth(path: Path, unkeyed: int) -> int:
+    """The ``shadow_depth`` a readable block was rendered at (``unkeyed``: that of blocks written
+    before blocks recorded it)."""
+    with np.load(path, allow_pickle=False) as z:
+        return int(z["shadow_depth"]) if "shadow_depth" in z.files else unkeyed
+
+
 def _one_thread() -> None:
     """A shadow worker: one torch thread, and it ends with the fit (a killed fit left its pool's
     workers rendering, ownerless, before)."""
@@ -90,15 +102,14 @@ def components(cfg: FitConfig) -> tuple[str, ...]:
 
 
 def _in_worlds(builder, settings, aim: np.ndarray, indices: list[int], offsets: list[float] | None,
-               cfg: FitConfig, block: int) -> dict[str, np.ndarray]:
-    """The block's people in :data:`RELAY_SETS` drawn worlds: those of relay set j (k mod
+               cfg: FitConfig, block: int, comps: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """The block's people's ``comps`` in :data:`RELAY_SETS` drawn worlds: those of relay set j (k mod
     :data:`RELAY_SETS`) in world [seed, block, j], so each world's renderer serves its set."""
     from ..render.variation import preset
     from ..world.mismatch import mismatched_world
 
     v = preset(cfg.world_variation).world_effects
     scan = builder.room_scene()
-    comps = components(cfg)
     out = {c: [None] * len(indices) for c in comps}
     for j in range(RELAY_SETS):
         pos = [i for i, k in enumerate(indices) if k % RELAY_SETS == j]
@@ -117,10 +128,11 @@ WORLD_STREAM = 7919
 """Seed stream of the drawn worlds (apart from the people's and the training's)."""
 
 
-def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int]) -> int:
+def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int], keep: bool = False) -> int:
     """One block: the people rendered again as the dataset drew them (``SceneBuilder.rerender``),
     their ``nlos_shadow`` under the spot aimed at ``aim`` (their whole light in drawn worlds under a
-    world variation, :func:`_in_worlds`)."""
+    world variation, :func:`_in_worlds`). ``keep``: the block is whole at another ``shadow_depth``;
+    only :data:`DEPTH_COMPONENTS` are rendered again, its other arrays kept as they are."""
     from ..data.store import atomic_npz, f16_encode
     from ..render.settings import resolve_device
     from .run import room_builder
@@ -130,14 +142,19 @@ def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int]
     settings = dcfg.render_settings(shadow_samples=fc.shadow_samples, bounce_body_samples=fc.bounce_body_samples,
                                     shadow_depth=fc.shadow_depth, device=resolve_device(fc.render_device))
     aim = np.asarray(aim, np.float64)
+    comps = DEPTH_COMPONENTS if keep else components(fc)
     if fc.world_variation == "ideal":
-        got = builder.rerender(indices, settings, aim, components(fc), relay_offsets(indices, fc))
+        got = builder.rerender(indices, settings, aim, comps, relay_offsets(indices, fc))
     else:
-        got = _in_worlds(builder, settings, aim, indices, relay_offsets(indices, fc), fc, block)
+        got = _in_worlds(builder, settings, aim, indices, relay_offsets(indices, fc), fc, block, comps)
     arrays = {}
+    if keep:
+        with np.load(_path(out_p, block), allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files if k not in ("indices", "shadow_depth")}
     for c, img in got.items():
         arrays[c], arrays[f"{c}_scale"] = f16_encode(img, True)
-    atomic_npz(_path(out_p, block), indices=np.asarray(indices, np.int64), **arrays)
+    atomic_npz(_path(out_p, block), indices=np.asarray(indices, np.int64),
+               shadow_depth=np.asarray(fc.shadow_depth, np.int64), **arrays)
     return len(indices)
 
 
@@ -164,34 +181,43 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
             **({"bounce_near_field": NEAR_FIELD, "bounce_body_samples": cfg.bounce_body_samples} if cfg.bounce else {})}
     stored = {"shadow_relay": "fixed", "shadow_depth": 4, "world_variation": "ideal", "footprint_jitter": False, "bounce": False,
               **json.loads((d / "meta.json").read_text())} \
-        if (d / "meta.json").exists() else meta
+        if (d / "meta.json").exists() else dict(meta)
     for key, before in BOUNCE_ADDED.items():
         if stored.get("bounce") and key not in stored:  # rendered before this setting of the bounce existed
             stored[key] = before
             if (out / "train" / "result.json").exists():  # a trained model keeps the light it was trained on
                 meta[key] = before
-    if stored != meta:
-        for p in d.glob("block-*.npz"):  # another spot or setting: nothing to keep
+    # blocks that do not record their depth were rendered at the depth of the meta that came with them
+    meta["unkeyed_shadow_depth"] = unkeyed = int(stored.pop("unkeyed_shadow_depth", stored["shadow_depth"]))
+    apart = lambda m: {k: v for k, v in m.items() if k not in ("shadow_depth", "unkeyed_shadow_depth")}
+    if apart(stored) != apart(meta):
+        for p in d.glob("block-*.npz"):  # another spot or setting: nothing to keep (another depth: the rest kept)
             p.unlink()
+        meta["unkeyed_shadow_depth"] = unkeyed = cfg.shadow_depth
     d.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(d)
     atomic_json(d / "meta.json", meta)
-    todo = [(b, idx) for b, idx in _blocks(cfg.transport_people, cfg.samples)
-            if not _readable(_path(out, b), idx, components(cfg))]
+    todo = []  # (block, its samples, whether it keeps its arrays other than DEPTH_COMPONENTS)
+    for b, idx in _blocks(cfg.transport_people, cfg.samples):
+        path = _path(out, b)
+        if not _readable(path, idx, components(cfg)):
+            todo.append((b, idx, False))
+        elif _block_depth(path, unkeyed) != cfg.shadow_depth:
+            todo.append((b, idx, True))
     total = cfg.samples - cfg.transport_people
     columns = (TextColumn("shadow"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
     with Progress(*columns, console=console, disable=QUIET or not progress) as bar:
-        task = bar.add_task("shadow", total=total, completed=total - sum(len(i) for _, i in todo))
+        task = bar.add_task("shadow", total=total, completed=total - sum(len(i) for _, i, _ in todo))
         if not todo:
             return
         args = (str(out), cfg.to_dict(), meta["aim"])
         if cfg.workers == 1:  # in this process
-            for b, idx in todo:
-                bar.advance(task, _render_block(*args, b, idx))
+            for b, idx, keep in todo:
+                bar.advance(task, _render_block(*args, b, idx, keep))
             return
         with ProcessPoolExecutor(max_workers=cfg.workers, mp_context=mp.get_context("spawn"),
                                  initializer=_one_thread) as pool:
-            jobs = [pool.submit(_render_block, *args, b, idx) for b, idx in todo]
+            jobs = [pool.submit(_render_block, *args, b, idx, keep) for b, idx, keep in todo]
             for job in as_completed(jobs):
                 try:
                     bar.advance(task, job.result())

@@ -747,6 +747,58 @@ def test_bounce_is_stored_and_trained_on(fitted, room_dir, tmp_path):
     assert json.loads((out / "shadow" / "meta.json").read_text())["bounce_body_samples"] == 0
 
 
+def test_another_shadow_depth_renders_the_shadow_again_and_keeps_the_rest(fitted, tmp_path, monkeypatch):
+    """Another ``--shadow-depth`` renders each block's ``nlos_shadow`` again and keeps its bounce as it
+    is (the bounce does not depend on the depth: a person rendered again at the new depth gives both);
+    a block the step has not reached yet (also one written before blocks recorded their depth) is
+    found on resume, and one whose file is torn is rendered whole."""
+    import shutil
+
+    from nlos_spotlight.data.generate import plan
+    from nlos_spotlight.data.scene_builder import SceneBuilder
+    from nlos_spotlight.data.store import atomic_npz
+    from nlos_spotlight.fit import shadow
+    from nlos_spotlight.fit.shadow import load_block_light, relay_offsets, render_shadows
+
+    src, report = fitted
+    out = tmp_path / "depth"
+    shutil.copytree(src, out)
+    monkeypatch.setattr(shadow, "BLOCK", 10)  # several blocks, in this process
+    d4 = dataclasses.replace(TINY, bounce=True, bounce_body_samples=32, shadow_depth=4, workers=1)
+    render_shadows(out, d4, report["spot"], progress=False)
+    before = load_block_light(out, d4)
+    blocks = sorted((out / "shadow").glob("block-*.npz"))
+    assert len(blocks) > 2
+    with np.load(blocks[0]) as z:
+        assert int(z["shadow_depth"]) == 4
+        old = {k: z[k] for k in z.files if k != "shadow_depth"}
+    atomic_npz(blocks[0], **old)  # as written before blocks recorded their depth
+    d10 = dataclasses.replace(d4, shadow_depth=10)
+    render_shadows(out, d10, report["spot"], progress=False)
+    after = load_block_light(out, d10)
+    np.testing.assert_array_equal(after["nlos_bounce"], before["nlos_bounce"])  # kept, not rendered again
+    dcfg = dataclasses.replace(dataset_config(d10, out / "room"), room=str((out / "room").resolve()))
+    k = int(np.argmax(np.abs(after["nlos_shadow"] - before["nlos_shadow"]).reshape(len(after["nlos_shadow"]), -1).sum(1)))
+    idx = [d10.transport_people + k]
+    settings = dcfg.render_settings(shadow_samples=d10.shadow_samples, bounce_body_samples=d10.bounce_body_samples,
+                                    shadow_depth=10)
+    again = SceneBuilder(dcfg, plan(dcfg)[0], out / "data").rerender(
+        idx, settings, np.asarray(report["spot"]["aim"]), ("nlos_shadow", "nlos_bounce"), relay_offsets(idx, d10))
+    for c in ("nlos_shadow", "nlos_bounce"):
+        np.testing.assert_allclose(after[c][k], again[c][0], rtol=2e-3, atol=2e-3 * np.abs(again[c][0]).max())
+    assert np.abs(after["nlos_shadow"][k] - before["nlos_shadow"][k]).max() > 1e-3 * np.abs(before["nlos_shadow"][k]).max()
+    # a fit stopped half-way: one block still at depth 4, another torn
+    with np.load(blocks[0]) as z:
+        atomic_npz(blocks[0], **{**{k: z[k] for k in z.files}, "shadow_depth": np.asarray(4)})
+    blocks[-1].write_bytes(b"torn")
+    stamps = {p: p.stat().st_mtime_ns for p in blocks}
+    render_shadows(out, d10, report["spot"], progress=False)
+    assert [p for p in blocks if p.stat().st_mtime_ns != stamps[p]] == sorted({blocks[0], blocks[-1]})
+    again = load_block_light(out, d10)
+    for c in ("nlos_shadow", "nlos_bounce"):
+        np.testing.assert_allclose(again[c], after[c], rtol=1e-6, atol=1e-9)
+
+
 def test_method_fits_a_baseline_on_the_same_people(fitted, room_dir, tmp_path):
     """``--method chandran``: Adaptive Lighting's spot and Chandran's CNN fitted on the same rendered
     people (``--people-from``: fixed policies' spots are stored for every person); its checkpoint is
