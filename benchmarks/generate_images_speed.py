@@ -99,12 +99,14 @@ def main() -> None:
         d = Path(tmp) / "scenes" / p.id
         size = lambda pattern: [f.stat().st_size for f in d.glob(pattern)]
         full_b, img_b = size("samples/*.npz"), size("images/*.npz")
-        static_b = sum(size("static.npz")) + sum(size("*.ply")) + sum(size("*.json"))
+        static_b = sum(size("static.npz")) + sum(size("*.ply")) + sum(size("*.json"))  # data.static.STATIC
         import json
         import numpy as np
 
         spots = json.loads((d / "spots.json").read_text())["spots"] if args.images else []
-        t_cands = len(np.load(d / "static.npz")["los_faces"])
+        from nlos_spotlight.data.static import read_static
+
+        t_cands = len(read_static(d, "los_faces")["los_faces"])
         body_b = 0
         with np.load(d / "samples" / "00000.npz") as z:
             body_b = z["body_vertices"].nbytes + z["body_faces"].nbytes

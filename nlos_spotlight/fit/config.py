@@ -7,6 +7,8 @@ from dataclasses import dataclass
 
 from ..errors import NlosError
 
+CLOTHING = ("camera", "camera-log", "dataset")
+"""Clothing distributions training redresses people in (``world.body.CLOTHING_RANGES``)."""
 POLICIES = ("oracle", "ien", "adaptive", "center", "random")
 """Spot policies ``nlos fit`` can use (``lighting``; 'ien' needs a trained run's checkpoint)."""
 
@@ -96,8 +98,9 @@ class FitConfig:
     network can learn) or 'fixed' (one set for all, the recipe before it)."""
     clothing: str = "camera"
     """Clothing albedos training redresses people in (exact: the light is linear in albedo):
-    'camera' (0.03-0.9: black to white fabric, ``world.body.CAMERA_CLOTHING``) or 'dataset' (the
-    rendered people's own 0.08-0.65, the recipe before it)."""
+    'camera' (0.03-0.9: black to white fabric, ``world.body.CAMERA_CLOTHING``, uniform in
+    brightness), 'camera-log' (the same range, log-uniform: dark fabric 4x as often) or 'dataset'
+    (the rendered people's own 0.08-0.65, the recipe before it)."""
     epochs: float = 60.0
     """Passes over the training people (copyroom, 3,000 people, held-out six-way posture / error:
     10 -> 63% / 11.0 cm, 30 -> 74% / 11.6 cm (experiments/fit-budget/fit_budget.py), 60 -> 86% / 11.2 cm (the
@@ -152,8 +155,8 @@ class FitConfig:
             raise NlosError(f"--bounce-scale: expected a number in (0, 10], got {scale!r}")
         if self.shadow_relay not in ("per-person", "fixed"):
             raise NlosError(f"--shadow-relay: expected 'per-person' or 'fixed', got {self.shadow_relay!r}")
-        if self.clothing not in ("camera", "dataset"):
-            raise NlosError(f"--clothing: expected 'camera' or 'dataset', got {self.clothing!r}")
+        if self.clothing not in CLOTHING:
+            raise NlosError(f"--clothing: expected one of {', '.join(CLOTHING)}, got {self.clothing!r}")
         if not 0 <= self.pixel_footprint <= 64 or isinstance(self.pixel_footprint, bool):
             raise NlosError(f"fit: pixel_footprint must be an integer from 0 (off) to 64, got {self.pixel_footprint!r}")
         from ..render.settings import DEVICES
@@ -276,7 +279,10 @@ PRESETS = {
                       shadow_samples=128,
                       epochs=2.0,
                       min_steps=20, workers=1, ceiling_people=1),
-    # make demo: a real scan fitted in about a quarter of an hour on 2 cores (600 people, 30 epochs)
+    # make demo: a real scan fitted in under 20 minutes on 2 cores (600 people, 30 epochs). The shadow
+    # step (each person's shadow and bounce) was 25 of its 37 minutes at the default's sampling; half
+    # the relay points and a quarter of the bounce's body samples make it 3.6x faster a person (the
+    # bounce 6% from the body's own quadrature, under its relay noise: docs/results/bounce-body-samples.txt)
     "demo": FitConfig(name="demo", people=600, heldout=60, transport_people=16, epochs=30.0, min_steps=300,
-                      ceiling_people=2),
+                      ceiling_people=2, shadow_samples=2048, bounce_body_samples=256),
 }

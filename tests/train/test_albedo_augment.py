@@ -80,6 +80,32 @@ def test_camera_clothing_reaches_black_and_white_fabric():
     assert float(data.min()) > 0.06 and float(data.max()) < 0.7
 
 
+def test_camera_log_clothing_is_log_uniform_in_brightness():
+    """'camera-log': the 'camera' range with log-uniform brightness. Unclipped, a draw's channel mean
+    is its brightness, so P(brightness < 0.1) = ln(0.1 / 0.03) / ln(0.9 / 0.03) = 0.354 and its
+    median sqrt(0.03 x 0.9) = 0.164 (uniform: 0.080 and 0.465); 20,000 draws, standard error 0.004."""
+    import math
+
+    from nlos_spotlight.cli import build_parser
+    from nlos_spotlight.fit.config import CLOTHING
+    from nlos_spotlight.world.body import CLOTHING_RANGES
+
+    g = torch.Generator().manual_seed(0)
+    log = clothing_albedo(20_000, g, kind="camera-log")
+    lin = clothing_albedo(20_000, g, kind="camera")
+    (lo, hi), clip = CLOTHING_RANGES["camera-log"]
+    free = ((log > clip[0]) & (log < clip[1])).all(1)  # draws no channel was clipped in
+    b = log[free].mean(1)
+    assert free.float().mean() > 0.9
+    assert abs(float((b < 0.1).float().mean()) - math.log(0.1 / lo) / math.log(hi / lo)) < 0.015
+    assert abs(float(b.median()) - math.sqrt(lo * hi)) < 0.01
+    assert abs(float((lin.mean(1) < 0.1).float().mean()) - (0.1 - lo) / (hi - lo)) < 0.015
+    assert float(log.min()) >= clip[0] - 1e-6 and float(log.max()) <= clip[1] + 1e-6
+    choices = next(a.choices for a in build_parser()._subparsers._group_actions[0].choices["fit"]._actions
+                   if a.dest == "clothing")
+    assert tuple(choices) == CLOTHING and set(CLOTHING) - {"dataset"} <= set(CLOTHING_RANGES)
+
+
 def test_shadow_term_joins_the_spot_light_not_the_clothing(micro_scene):
     """A stored shadow term adds to the projector's person light as is, whatever the albedo (the
     blocked light does not depend on the clothing), and only under its own spot."""
