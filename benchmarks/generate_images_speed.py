@@ -98,14 +98,14 @@ def main() -> None:
         total = time.perf_counter() - t0
         d = Path(tmp) / "scenes" / p.id
         size = lambda pattern: [f.stat().st_size for f in d.glob(pattern)]
+        from nlos_spotlight.data.static import STATIC, read_static
+
         full_b, img_b = size("samples/*.npz"), size("images/*.npz")
-        static_b = sum(size("static.npz")) + sum(size("*.ply")) + sum(size("*.json"))  # data.static.STATIC
+        static_b = sum(size(STATIC)) + sum(size("*.ply")) + sum(size("*.json"))
         import json
         import numpy as np
 
         spots = json.loads((d / "spots.json").read_text())["spots"] if args.images else []
-        from nlos_spotlight.data.static import read_static
-
         t_cands = len(read_static(d, "los_faces")["los_faces"])
         body_b = 0
         with np.load(d / "samples" / "00000.npz") as z:

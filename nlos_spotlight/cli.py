@@ -437,6 +437,8 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .fit.config import CLOTHING  # a light module: dataclasses and errors only
+
     p = _Parser(prog="nlos", description="NLOS human localization with a projector spotlight")
     sub = p.add_subparsers(dest="command", required=True)
     from .render.settings import RENDER_PRESETS
@@ -576,7 +578,7 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--world-variation", help="calibration error to train under: the people rendered in worlds "
                                              "off the scan by camera pose, projector aim, albedo and geometry "
                                              "(tripod, rough); ideal: in the scan itself (default)")
-    f.add_argument("--clothing", choices=("camera", "camera-log", "dataset"),  # fit.config.CLOTHING
+    f.add_argument("--clothing", choices=CLOTHING,
                    help="clothing albedos training redresses people in: camera (black to white, default), "
                         "camera-log (the same, dark fabric 4x as often) or dataset (as rendered)")
     f.add_argument("--no-projection", action="store_true", help="train under the capture variation without "

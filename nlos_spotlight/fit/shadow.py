@@ -60,23 +60,24 @@ def _path(out: Path, block: int) -> Path:
 
 
 def _readable(path: Path, indices: list[int], comps: tuple[str, ...] = ("nlos_shadow",)) -> bool:
+    return _block_depth(path, indices, comps, 0) is not None
+
+
+def _block_depth(path: Path, indices: list[int], comps: tuple[str, ...], unkeyed: int) -> int | None:
+    """The ``shadow_depth`` a block holding ``comps`` of ``indices`` was rendered at (``unkeyed``:
+    that of blocks written before blocks recorded it); None if it is missing, torn or another's."""
     try:
         with np.load(path, allow_pickle=False) as z:
-            return z["indices"].tolist() == indices and all(z[c].shape[0] == len(indices) for c in comps)
+            if z["indices"].tolist() != indices or any(z[c].shape[0] != len(indices) for c in comps):
+                return None
+            return int(z["shadow_depth"]) if "shadow_depth" in z.files else unkeyed
     except Exception:  # a torn block is rendered again
-        return False
+        return None
 
 
 DEPTH_COMPONENTS = ("nlos_shadow",)
 """What ``shadow_depth`` changes: another depth renders these again and keeps a block's others (the
 bounce, a drawn world's light), a quarter of the step's time."""
-
-
-def _block_depth(path: Path, unkeyed: int) -> int:
-    """The ``shadow_depth`` a readable block was rendered at (``unkeyed``: that of blocks written
-    before blocks recorded it)."""
-    with np.load(path, allow_pickle=False) as z:
-        return int(z["shadow_depth"]) if "shadow_depth" in z.files else unkeyed
 
 
 def _one_thread() -> None:
@@ -199,11 +200,9 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
     atomic_json(d / "meta.json", meta)
     todo = []  # (block, its samples, whether it keeps its arrays other than DEPTH_COMPONENTS)
     for b, idx in _blocks(cfg.transport_people, cfg.samples):
-        path = _path(out, b)
-        if not _readable(path, idx, components(cfg)):
-            todo.append((b, idx, False))
-        elif _block_depth(path, unkeyed) != cfg.shadow_depth:
-            todo.append((b, idx, True))
+        depth = _block_depth(_path(out, b), idx, components(cfg), unkeyed)
+        if depth != cfg.shadow_depth:
+            todo.append((b, idx, depth is not None))
     total = cfg.samples - cfg.transport_people
     columns = (TextColumn("shadow"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
     with Progress(*columns, console=console, disable=QUIET or not progress) as bar:

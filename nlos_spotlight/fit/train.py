@@ -30,9 +30,9 @@ def fit_train_config(cfg: FitConfig, out: Path | None = None) -> TrainConfig:
 
     tc = seen_config(1, seed=cfg.seed, noise=True, policy=cfg.policy, arch=fit_method(cfg.method).arch)
     drift = cfg.capture_preset != "ideal" and cfg.project_nuisance
-    camera = cfg.clothing != "dataset"  # redressed in real clothing's range; 'dataset': as rendered, no augmentation
+    redress = cfg.clothing != "dataset"  # redressed in real clothing's range; 'dataset': as rendered, no augmentation
     return dataclasses.replace(tc, name="room-model", sensor=capture_overrides(out, cfg), variation=cfg.capture_preset,
-                               net=dataclasses.replace(tc.net, project_nuisance=drift), albedo_augment=camera,
+                               net=dataclasses.replace(tc.net, project_nuisance=drift), albedo_augment=redress,
                                clothing=cfg.clothing)
 
 
