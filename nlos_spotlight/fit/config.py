@@ -284,8 +284,9 @@ PRESETS = {
                       min_steps=20, workers=1, ceiling_people=1),
     # make demo: a real scan fitted in under 20 minutes on 2 cores (600 people, 30 epochs). The shadow
     # step (each person's shadow and bounce) was 25 of its 37 minutes at the default's sampling; half
-    # the relay points and a quarter of the bounce's body samples make it 3.6x faster a person (the
-    # bounce 6% from the body's own quadrature, under its relay noise: docs/results/bounce-body-samples.txt)
+    # the relay points and a quarter of the bounce's body samples make it 2.8x faster (545 s against
+    # 1,527 s, each demo's timing.json; the bounce 6% from the body's own quadrature, under its relay
+    # noise: docs/results/bounce-body-samples.txt)
     "demo": FitConfig(name="demo", people=600, heldout=60, transport_people=16, epochs=30.0, min_steps=300,
                       ceiling_people=2, shadow_samples=2048, bounce_body_samples=256),
 }
