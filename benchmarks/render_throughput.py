@@ -14,8 +14,7 @@ The reference, measured in the same run on the same people: the per-person path 
 this benchmark: numba's ``omp`` threading layer and the parallel pair loops at any thread count (its
 idle threads spin between the loops' calls; now a one-thread process runs serial twins,
 ``render/pair_loops.py``), embreex for the rays (one at a time; now Dr.Jit's array ray tests,
-``render/rays_drjit.py``), and for ``--shadow`` the torch box test and second leg (now compiled
-loops; the torch ones stay as the references, ``render/shadow.py``). One thing of the old path is not
+``render/rays_drjit.py``). One thing of the old path is not
 put back: embreex's batches of 65,536 rays or more used every core whatever the process's thread
 budget (``render/rays._workers`` now follows torch's), so a one-process run was not one core and two
 processes oversubscribed two; both paths here keep to one thread a process, which favours the
@@ -29,8 +28,13 @@ reference_people_per_s,ratio``) and, beside it, the same with the machine and se
     python benchmarks/render_throughput.py [--config benchmarks/configs/rooms/copyroom.yaml]
         [--people 16] [--cores 1,2] [--repeats 3] [--shadow] [--out CSV]
 
-``--shadow`` times the people's ``nlos_shadow`` under one spot instead (the fit's shadow step, its
-relay set's static visibility cast before the timing): ``docs/results/render-throughput-shadow.csv``.
+``--shadow`` times what the fit's shadow step renders instead: each person's ``nlos_shadow`` and
+``nlos_bounce`` at ``FitConfig``'s relay points, bounce body samples and shadow depth, under one
+spot, the room's later relays and one relay set built before the timing (the fit's people share a
+set twelve or thirteen at a time; the set's first person, who casts its static visibility, is timed
+apart and written to the .json). Its reference is the step before its legs and the bounce's body <->
+relay exchange ran as compiled loops over every group at once (:data:`SHADOW_PATHS`):
+``docs/results/render-throughput-shadow.csv``.
 """
 
 from __future__ import annotations
@@ -50,20 +54,29 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-PATHS = {"new": (None, "auto", False), "reference": ("omp", "embree", True), "new-embree": (None, "embree", False)}
-"""(numba threading layer, ``RenderSettings.rays``, legacy) of each measured path (None: the
-package's choice): today's defaults, the path before them, and today's loops with the old rays (the
-changes apart; in the .json only). ``legacy``: the loops as before (``pair_loops.PARALLEL`` at any
-thread count) and the shadow's torch crossing test and second leg (``render/shadow.py``'s references)."""
+PATHS = {"new": (None, "auto", ""), "reference": ("omp", "embree", "loops"), "new-embree": (None, "embree", "")}
+"""(numba threading layer, ``RenderSettings.rays``, legacy) of each measured path of the image
+samples (None: the package's choice): today's defaults, the path before them, and today's loops
+with the old rays (the changes apart; in the .json only). ``legacy``: what :func:`_legacy` puts back."""
+SHADOW_PATHS = {"new": (None, "auto", ""), "reference": (None, "auto", "relay")}
+"""The same for ``--shadow``: today's shadow step, and the step before its legs and the bounce's
+body <-> relay exchange ran as compiled loops over every group at once (``legacy`` ``relay``)."""
 
 
-def _legacy() -> None:
-    """Put back, in this process, the code paths the package kept as references (``PATHS``)."""
-    from nlos_spotlight.render import pair_loops, shadow
+def _legacy(which: str) -> None:
+    """Put back, in this process, code paths the package kept as references: ``loops``: the loops as
+    before (``pair_loops.PARALLEL`` at any thread count) and the shadow's torch crossing test and
+    second leg (``render/shadow.py``'s references); ``relay``: the shadow's compiled leg group by group
+    and chunk by chunk, and the bounce's body <-> relay exchange as torch blocks."""
+    from nlos_spotlight.render import bounce, pair_loops, shadow
 
-    pair_loops.SERIAL = pair_loops.PARALLEL
-    shadow.cross_box = shadow.segments_cross_box
-    shadow.SpotShadow._second_leg_loops = shadow.SpotShadow._second_leg
+    if which in ("loops", "relay"):
+        shadow.SpotShadow.flat_groups = lambda self: None
+        bounce.LOOP_PAIRS = 0
+    if which == "loops":
+        pair_loops.SERIAL = pair_loops.PARALLEL
+        shadow.cross_box = shadow.segments_cross_box
+        shadow.SpotShadow._second_leg_loops = shadow.SpotShadow._second_leg
 
 
 def build_room(config: str, work: Path):
@@ -94,10 +107,12 @@ def people(sb, n: int) -> list:
     return [sb._person(spec, floor_z)[1:] for spec in specs[first:first + n]]
 
 
-def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, legacy: bool, shadow: bool, barrier,
+def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, legacy: str, shadow: bool, barrier,
             queue) -> None:
     """Build the renderer, wait for the others, render every person (their image samples, or with
-    ``shadow`` their ``nlos_shadow`` under the first spot, one relay set); put (seconds, people)."""
+    ``shadow`` what the fit's shadow step renders of them under the first spot, one relay set: put
+    also the seconds of that set's first person, who pays for the set's static visibility); put
+    (seconds, people[, first person's seconds])."""
     import torch
 
     from nlos_spotlight.data.flash import FLASH_SPOT_SAMPLES, flash_scene
@@ -108,23 +123,31 @@ def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, legacy: 
 
     torch.set_num_threads(1)
     if legacy:
-        _legacy()
+        _legacy(legacy)
     scene = load_scene(room_dir)
     surfaces = StaticSurfaces(scene)
     los = los_mesh(surfaces.mesh, surfaces.engine, scene.camera, dcfg.los_vertices)
     from nlos_spotlight.fit.config import FitConfig
 
-    settings = dcfg.render_settings(device=device, rays=rays, shadow_samples=FitConfig().shadow_samples)
-    if shadow:  # as the fit's shadow step: a renderer of the one chosen spot
+    fc = FitConfig()
+    settings = dcfg.render_settings(device=device, rays=rays, shadow_samples=fc.shadow_samples)
+    if shadow:  # as the fit's shadow step: a renderer of the one chosen spot, its settings and components
+        from nlos_spotlight.fit.shadow import components
+
+        settings = dataclasses.replace(settings, bounce_body_samples=fc.bounce_body_samples, shadow_depth=fc.shadow_depth)
         r = Renderer(scene, settings, aim_points=los.centroids()[spots[:1]])
         y = r.spot_vector(0)
+        comps = components(fc)
         with torch.no_grad():
-            r.render(y, people[0][0], torch.as_tensor(people[0][1]), ("nlos_shadow",))  # its relay set's visibility
+            r.render(y, people[0][0], torch.as_tensor(people[0][1]), comps, relay_offset=0.5)  # the room's light
             barrier.wait()
             t = time.perf_counter()
+            r.render(y, people[0][0], torch.as_tensor(people[0][1]), comps, relay_offset=0.25)  # a new relay set
+            first = time.perf_counter() - t
+            t = time.perf_counter()
             for person, tr in people:
-                r.render(y, person, torch.as_tensor(tr), ("nlos_shadow",))
-        queue.put((time.perf_counter() - t, len(people)))
+                r.render(y, person, torch.as_tensor(tr), comps, relay_offset=0.25)
+        queue.put((time.perf_counter() - t, len(people), first))
         return
     r = Renderer(scene, settings, aim_points=los.centroids())
     flash = Renderer(flash_scene(scene), dataclasses.replace(settings, spot_samples=settings.spot_samples
@@ -141,9 +164,9 @@ def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, legacy: 
 
 
 def throughput(room_dir: Path, dcfg, people, spots, processes: int, path: tuple, device: str = "cpu",
-               shadow: bool = False) -> float:
+               shadow: bool = False, firsts: list | None = None) -> float:
     """People per second of ``processes`` concurrent renderers, each rendering all of ``people``;
-    ``path``: as :data:`PATHS`."""
+    ``path``: as :data:`PATHS`; ``firsts``: gets each process's first-person seconds (``shadow``)."""
     layer, rays, legacy = path
     ctx = mp.get_context("spawn")
     barrier, queue = ctx.Barrier(processes), ctx.Queue()
@@ -165,7 +188,9 @@ def throughput(room_dir: Path, dcfg, people, spots, processes: int, path: tuple,
             os.environ["NUMBA_THREADING_LAYER"] = old
     if any(p.exitcode != 0 for p in procs):
         raise SystemExit("a rendering process failed")
-    return sum(n for _, n in res) / max(s for s, _ in res)
+    if firsts is not None:
+        firsts.extend(r[2] for r in res if len(r) > 2)
+    return sum(r[1] for r in res) / max(r[0] for r in res)
 
 
 def main() -> None:
@@ -186,6 +211,7 @@ def main() -> None:
     from nlos_spotlight.render.surface import StaticSurfaces
 
     cores = [int(c) for c in args.cores.split(",")]
+    paths = SHADOW_PATHS if args.shadow else PATHS
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         sb, dcfg = build_room(args.config, work)
@@ -199,20 +225,28 @@ def main() -> None:
               f"footprint {dcfg.pixel_footprint}, {nsamp} body samples a person (mean), {args.people} people a process")
         rows, extra = [], []
         for n in cores:
-            runs = {k: [] for k in PATHS}
+            runs = {k: [] for k in paths}
+            firsts = {k: [] for k in paths}
             for _ in range(args.repeats):  # interleaved: a slow spell of the machine hits every path
-                for k, path in PATHS.items():
-                    runs[k].append(throughput(work / "room", dcfg, ppl, spots, n, path, shadow=args.shadow))
+                for k, path in paths.items():
+                    runs[k].append(throughput(work / "room", dcfg, ppl, spots, n, path, shadow=args.shadow,
+                                              firsts=firsts[k]))
             got = {k: float(np.median(v)) for k, v in runs.items()}
             rows.append({"device": "cpu", "threads": n, "people_per_s": got["new"],
                          "reference_people_per_s": got["reference"], "ratio": got["new"] / got["reference"]})
-            extra.append({"threads": n, **got, "runs": runs})
+            extra.append({"threads": n, **got, "runs": runs,
+                          **({"relay_set_first_person_s": {k: float(np.median(v)) for k, v in firsts.items()}}
+                             if args.shadow else {})})
+            also = "" if args.shadow else f" (the new loops with the old rays: {got['new-embree']:.2f})"
             print(f"cpu, {n} core(s): {got['new']:.2f} people/s, reference {got['reference']:.2f}: "
-                  f"{rows[-1]['ratio']:.2f}x (the new loops with the old rays: {got['new-embree']:.2f})", flush=True)
+                  f"{rows[-1]['ratio']:.2f}x{also}", flush=True)
+            if args.shadow:
+                print("  a relay set's first person (its static visibility), seconds: "
+                      + ", ".join(f"{k} {float(np.median(v)):.2f}" for k, v in firsts.items()), flush=True)
         if torch.cuda.is_available():
             card = torch.cuda.get_device_name(0)
-            gpu = throughput(work / "room", dcfg, ppl, spots, 1, PATHS["new"], "cuda", args.shadow)
-            ref = throughput(work / "room", dcfg, ppl, spots, 1, PATHS["reference"], shadow=args.shadow)
+            gpu = throughput(work / "room", dcfg, ppl, spots, 1, paths["new"], "cuda", args.shadow)
+            ref = throughput(work / "room", dcfg, ppl, spots, 1, paths["reference"], shadow=args.shadow)
             rows.append({"device": card, "threads": 1, "people_per_s": gpu, "reference_people_per_s": ref, "ratio": gpu / ref})
             print(f"{card}: {gpu:.2f} people/s, one-core reference {ref:.2f}: {gpu / ref:.2f}x")
     out = Path(args.out)
@@ -229,8 +263,10 @@ def main() -> None:
             "settings": {k: getattr(dcfg, k) for k in ("resolution", "pixel_footprint", "person_samples", "body_faces",
                                                          "spot_samples", "person_quadrature")},
             "paths": {k: {"numba_threading_layer": v[0] or "workqueue (the package's)", "rays": v[1], "legacy": v[2]}
-                      for k, v in PATHS.items()},
-            "measured": "nlos_shadow under the first spot" if args.shadow else "image samples (10 spots, flash, nlos_ambient)",
+                      for k, v in paths.items()},
+            "measured": ("the fit's shadow step (nlos_shadow and nlos_bounce at FitConfig's shadow_samples, "
+                         "bounce_body_samples and shadow_depth) under the first spot, one relay set built before"
+                         if args.shadow else "image samples (10 spots, flash, nlos_ambient)"),
             "rows": rows, "all_paths_people_per_s": extra}
     out.with_suffix(".json").write_text(json.dumps(meta, indent=1))
     print(f"wrote {out}")

@@ -240,6 +240,159 @@ def gather_sparse(rp, rn, to_cam, cos_c, kd, ks, alpha, glossy, o, nb, area, sta
     return out
 
 
+@njit(cache=True, parallel=True)
+def relay_exchange(o, on, lf, lb, hp, hn, lr, start, idx, visible, r2_min, parts):
+    """Both ways between body samples o (N) and relay points h (H) over the unblocked pairs, as
+    ``render.bounce.body_relay``'s torch blocks: w = |cos_o| |cos_h| / max(r^2, r2_min);
+    e[s_o, n] = sum_h w lr[s_h, h] (the irradiance on body sample n's side s_o from the side s_h of
+    h that faces it; ``lr`` (2, H, 3) relay radiance times area) and out[s_h, h] = sum_n w lo_n
+    (``lf`` / ``lb`` (N, 3): the body's front / back radiance times area, by the side facing h).
+    Returns e (2, N, 3) and out (2, H, 3) in float64. Rows of o run in ``parts`` blocks, each
+    adding to its own copy of ``out`` (no two threads write one h)."""
+    n_o, n_h = o.shape[0], hp.shape[0]
+    e = np.zeros((2, n_o, 3))
+    out = np.zeros((parts, 2, n_h, 3))
+    step = (n_o + parts - 1) // parts
+    for p in prange(parts):
+        for a in range(p * step, min(n_o, (p + 1) * step)):
+            for k in range(start[a], start[a + 1]):
+                if not visible[k]:
+                    continue
+                b = idx[k]
+                dx, dy, dz, r2, cos_a, cos_b = _pair(o, on, hp, hn, a, b)
+                w = abs(cos_a) * abs(cos_b) / max(r2, r2_min)
+                so = 0 if cos_a > 0 else 1
+                sh = 0 if cos_b > 0 else 1
+                for c in range(3):
+                    e[so, a, c] += w * lr[sh, b, c]
+                    out[p, sh, b, c] += w * (lf[a, c] if so == 0 else lb[a, c])
+    return e, out.sum(0)
+
+
+@njit(cache=True, parallel=True)
+def relayed(rp, rn, kd, cos_c, rows, row_start, hp, hn, area, hs, hs_start, vis, vis_start, light, lit, r2_min):
+    """The radiance (P, 3) diffuse camera points receive from relay points of radiance ``light``
+    (2, H, 3) (``lit`` (H,): the relay points whose light sums above zero; the others are skipped,
+    as the shadow's legs skip them), by groups with nothing blocked: ``render.shadow.SpotShadow._second_leg`` with no body
+    in the way, over every group in one call. Group g pairs the camera points ``rows[row_start[g]:
+    row_start[g + 1]]`` with the relay points ``hs[hs_start[g]:hs_start[g + 1]]``; ``vis`` holds each
+    group's static visibility row-major from ``vis_start[g]`` (``SpotShadow._static_visibility``)."""
+    out = np.zeros((rp.shape[0], 3))
+    for g in prange(row_start.shape[0] - 1):
+        h0, nh = hs_start[g], hs_start[g + 1] - hs_start[g]
+        for i in range(row_start[g], row_start[g + 1]):
+            p = rows[i]
+            v0 = vis_start[g] + (i - row_start[g]) * nh
+            for j in range(nh):
+                if not vis[v0 + j]:
+                    continue
+                b = hs[h0 + j]
+                if not lit[b]:
+                    continue
+                dx, dy, dz, r2, cos_a, cos_b = _pair(rp, rn, hp, hn, p, b)
+                if cos_a * cos_c[p] <= 0:
+                    continue
+                w = abs(cos_a) * abs(cos_b) / max(r2, r2_min) * area[b]
+                side = 0 if cos_b > 0 else 1
+                for c in range(3):
+                    out[p, c] += kd[p, c] / math.pi * w * light[side, b, c]
+    return out
+
+
+@njit(cache=True, inline="always")
+def _crosses(a, i, b, j, lo, hi) -> bool:
+    """The segment a[i] -> b[j] meets the box [lo, hi] (:func:`segments_cross_box`'s slab test)."""
+    near, far = 0.0, 1.0
+    for k in range(3):
+        d = b[j, k] - a[i, k]
+        if abs(d) < 1e-12:
+            d = 1e-12
+        t0, t1 = (lo[k] - a[i, k]) / d, (hi[k] - a[i, k]) / d
+        near = max(near, min(t0, t1))
+        far = min(far, max(t0, t1))
+    return near <= far
+
+
+@njit(cache=True, parallel=True)
+def cross_groups(rp, rows, row_start, hp, hs, hs_start, vis_start, lo, hi):
+    """The box test of every group's (camera point, relay point) segments at once, laid out as the
+    groups' static visibility (:func:`relayed`); and (H,) whether any camera point's segment to each
+    relay point crosses (each relay point belongs to one group)."""
+    cross = np.zeros(vis_start[-1], np.bool_)
+    any_h = np.zeros(hp.shape[0], np.bool_)
+    for g in prange(row_start.shape[0] - 1):
+        h0, nh = hs_start[g], hs_start[g + 1] - hs_start[g]
+        for i in range(row_start[g], row_start[g + 1]):
+            v0 = vis_start[g] + (i - row_start[g]) * nh
+            for j in range(nh):
+                if _crosses(rp, rows[i], hp, hs[h0 + j], lo, hi):
+                    cross[v0 + j] = True
+                    any_h[hs[h0 + j]] = True
+    return cross, any_h
+
+
+@njit(cache=True, inline="always")
+def _leg_pair(rp, rn, cos_c, hp, hn, p, b, r2_min):
+    """(carries light, w without area, side of h facing p, direction, cos) of camera point p and relay point b."""
+    dx, dy, dz, r2, cos_a, cos_b = _pair(rp, rn, hp, hn, p, b)
+    if cos_a * cos_c[p] <= 0:
+        return False, 0.0, 0, dx, dy, dz, cos_a, cos_b
+    return True, abs(cos_a) * abs(cos_b) / max(r2, r2_min), 0 if cos_b > 0 else 1, dx, dy, dz, cos_a, cos_b
+
+
+@njit(cache=True, parallel=True)
+def shadow_legs(rp, rn, kd, cos_c, rows, row_start, hp, hn, area, hs, hs_start, vis, vis_start, cross, l_blk,
+                l_rest, blk_any, r2_min):
+    """:func:`shadow_leg` over every group in one call (the layout of :func:`relayed`; ``cross`` from
+    :func:`cross_groups`; ``l_blk``, ``l_rest`` (2, H, 3) and ``blk_any`` (H,) over all relay points,
+    zero where nothing is blocked). Returns the same: the radiance (P, 3) of the light blocked on
+    the first leg, and the body rays of the crossing pairs with their camera point and radiance."""
+    n_g = row_start.shape[0] - 1
+    counts = np.zeros(n_g, np.int64)
+    for g in prange(n_g):
+        h0, nh = hs_start[g], hs_start[g + 1] - hs_start[g]
+        for i in range(row_start[g], row_start[g + 1]):
+            v0 = vis_start[g] + (i - row_start[g]) * nh
+            for j in range(nh):
+                if cross[v0 + j] and vis[v0 + j]:
+                    if _leg_pair(rp, rn, cos_c, hp, hn, rows[i], hs[h0 + j], r2_min)[0]:
+                        counts[g] += 1
+    first = np.zeros(n_g + 1, np.int64)
+    for g in range(n_g):
+        first[g + 1] = first[g] + counts[g]
+    m = first[-1]
+    rad = np.zeros((rp.shape[0], 3))
+    org = np.empty((m, 3), np.float32)
+    dirs = np.empty((m, 3), np.float32)
+    length = np.empty(m, np.float32)
+    row = np.empty(m, np.int64)
+    lost = np.empty((m, 3))
+    for g in prange(n_g):
+        h0, nh = hs_start[g], hs_start[g + 1] - hs_start[g]
+        k = first[g]
+        for i in range(row_start[g], row_start[g + 1]):
+            p = rows[i]
+            v0 = vis_start[g] + (i - row_start[g]) * nh
+            for j in range(nh):
+                b = hs[h0 + j]
+                if not (blk_any[b] or cross[v0 + j]) or not vis[v0 + j]:
+                    continue
+                ok, w, side, dx, dy, dz, cos_a, cos_b = _leg_pair(rp, rn, cos_c, hp, hn, p, b, r2_min)
+                if not ok:
+                    continue
+                w *= area[b]
+                for ch in range(3):
+                    rad[p, ch] += kd[p, ch] / math.pi * w * l_blk[side, b, ch]
+                if not cross[v0 + j]:
+                    continue
+                _write_ray(rp, rn, hp, hn, p, b, dx, dy, dz, np.sign(cos_a), np.sign(cos_b), org, dirs, length, k)
+                row[k] = p
+                for ch in range(3):
+                    lost[k, ch] = kd[p, ch] / math.pi * w * l_rest[side, b, ch]
+                k += 1
+    return rad, org, dirs, length, row, lost
+
+
 def no_keys(na: int, nb: int) -> tuple[np.ndarray, int]:
     """(akey, stride) under which every a pairs with every b (:func:`_bs`)."""
     return np.full(na, -1, np.int64), 0
@@ -252,15 +405,7 @@ def segments_cross_box(a, b, lo, hi):
     out = np.zeros((a.shape[0], b.shape[0]), np.bool_)
     for i in range(a.shape[0]):
         for j in range(b.shape[0]):
-            near, far = 0.0, 1.0
-            for k in range(3):
-                d = b[j, k] - a[i, k]
-                if abs(d) < 1e-12:
-                    d = 1e-12
-                t0, t1 = (lo[k] - a[i, k]) / d, (hi[k] - a[i, k]) / d
-                near = max(near, min(t0, t1))
-                far = min(far, max(t0, t1))
-            out[i, j] = near <= far
+            out[i, j] = _crosses(a, i, b, j, lo, hi)
     return out
 
 
@@ -316,7 +461,9 @@ def _serial_twin(f):
     return njit(cache=True)(twin)
 
 
-PARALLEL = {f.py_func.__name__: f for f in (need_counts, shadow_rays, radiosity, gather_weights, gather_sparse)}
+PARALLEL = {f.py_func.__name__: f for f in (need_counts, shadow_rays, radiosity, gather_weights, gather_sparse,
+                                            relay_exchange, relayed, cross_groups,
+                                            shadow_legs)}
 """The loops with ``prange`` over numba's threading layer."""
 SERIAL = {name: _serial_twin(f) for name, f in PARALLEL.items()}
 """The same loops on the calling thread alone: what a process told to use one thread runs (the fit's
@@ -348,4 +495,6 @@ def pair_start(counts: np.ndarray) -> np.ndarray:
     return np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
 
 
-__all__ = ["shadow_leg", "segments_cross_box", "gather_sparse", "gather_weights", "group_runs", "need_counts", "no_keys", "pair_start", "radiosity", "set_threads", "shadow_rays"]
+__all__ = ["shadow_leg", "segments_cross_box", "gather_sparse", "gather_weights", "group_runs", "need_counts", "no_keys", "pair_start", "radiosity", "relay_exchange", "relayed", "cross_groups", "shadow_legs",
+           "set_threads",
+           "shadow_rays"]

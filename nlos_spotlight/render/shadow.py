@@ -26,7 +26,7 @@ on the person's position only through visibility, so it has no gradient with res
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import torch
@@ -43,6 +43,39 @@ if TYPE_CHECKING:
 
 STATIC_CACHE_PAIRS = 1 << 26
 """Largest (camera sub-sample, h) visibility a renderer keeps (a byte a pair: 64 MB)."""
+
+
+class FlatGroups(NamedTuple):
+    """A relay set's camera-point groups flattened for the compiled legs (``pair_loops.relayed``,
+    ``cross_groups``, ``shadow_legs``), float64 / int64 / bool numpy, P camera sub-samples, H
+    relay points, G groups; fixed per renderer and relay set (:meth:`SpotShadow.flat_groups`)."""
+
+    rp: np.ndarray
+    """(P, 3) camera points."""
+    rn: np.ndarray
+    """(P, 3) their normals."""
+    kd: np.ndarray
+    """(P, 3) their diffuse albedo."""
+    cos_c: np.ndarray
+    """(P,) their cosine toward the camera."""
+    rows: np.ndarray
+    """The groups' camera points, group after group."""
+    row_start: np.ndarray
+    """(G + 1,) where each group's rows start."""
+    hp: np.ndarray
+    """(H, 3) relay points."""
+    hn: np.ndarray
+    """(H, 3) their normals."""
+    area: np.ndarray
+    """(H,) their area."""
+    hs: np.ndarray
+    """The groups' relay points, group after group."""
+    hs_start: np.ndarray
+    """(G + 1,) where each group's relay points start."""
+    vis: np.ndarray
+    """Each group's static visibility (its rows x its relay points, row-major), group after group."""
+    vis_start: np.ndarray
+    """(G + 1,) where each group's visibility starts."""
 
 
 def segments_cross_box(a: torch.Tensor, b: torch.Tensor, lo: torch.Tensor, hi: torch.Tensor) -> torch.Tensor:
@@ -96,6 +129,7 @@ class SpotShadow:
         self._group_cache: list | None = None  # ``_groups``: the renderer's sub-samples do not change
         self._spot_light: dict = {}  # spot vector -> the radiance it leaves on each h (``bounce.spot_radiance``)
         self._tail: dict = {}  # spot vector -> the radiance the room's later relays leave on each h (``tail_light``)
+        self._flat: tuple | bool | None = None  # ``flat_groups``: False where it does not apply
 
     def bounce(self, y: torch.Tensor, person: Person, t: torch.Tensor) -> torch.Tensor:
         """(H, W, 3) ``nlos_bounce`` through these relay points (``render/bounce.py``)."""
@@ -167,18 +201,26 @@ class SpotShadow:
         lo, hi = r._t(verts.min(0) - 4 * EPS), r._t(verts.max(0) + 4 * EPS)
         src, lit = self.spot_sources(y)
         rec = r.recv_t
-        cos_c = (rec.pts["normal"] * rec.to_cam).sum(-1, keepdim=True)
         groups = self._groups(rec)
+        flat = self.flat_groups() if r._loops() else None  # every group in one compiled call
         # which h matter: a blocked first leg, or a second leg toward a camera point through the box
         geo1 = pair_geometry(src["pos"], src["normal"], h["pos"], h["normal"])
         need1 = geo1.cos_a * lit > 0
         cross1 = need1 & cross_box(src["pos"], h["pos"], lo, hi)
-        cross2 = torch.zeros(len(h["pos"]), dtype=torch.bool, device=r.device)
-        crossing = []  # per group: (its sub-samples, its h) segments through the body's box
-        for rows, hs in groups:
-            c = torch.cat([cross_box(rec.pts["pos"][sl], h["pos"][hs], lo, hi) for sl in self._chunks(rows)])
-            crossing.append(c)
-            cross2[hs] |= c.any(0)
+        if flat is not None:
+            from . import pair_loops as pl
+
+            pl.set_threads(torch.get_num_threads())
+            cross_flat, any_h = pl.loops()["cross_groups"](flat.rp, flat.rows, flat.row_start, flat.hp, flat.hs,
+                                                           flat.hs_start, flat.vis_start, _f64(lo), _f64(hi))
+            cross2 = torch.from_numpy(any_h)
+        else:
+            cross2 = torch.zeros(len(h["pos"]), dtype=torch.bool, device=r.device)
+            crossing = []  # per group: (its sub-samples, its h) segments through the body's box
+            for rows, hs in groups:
+                c = torch.cat([cross_box(rec.pts["pos"][sl], h["pos"][hs], lo, hi) for sl in self._chunks(rows)])
+                crossing.append(c)
+                cross2[hs] |= c.any(0)
         keep = torch.nonzero(cross1.any(0) | cross2).flatten()
         if len(keep) == 0:
             return torch.zeros(*r.shape, 3, device=r.device, dtype=r.dtype)
@@ -197,8 +239,39 @@ class SpotShadow:
         tail = self.tail_light(y)
         if tail is not None:  # the room's later relays reach h too
             l_rest = l_rest + tail[:, keep]
+        if flat is not None:
+            out = self._legs_flat(flat, body, keep, l_blk, l_rest, cross_flat)
+        else:
+            out = self._legs(groups, body, rec, keep, l_blk, l_rest, crossing)
+        img = -r._pixels(rec.scale(out), rec)
+        if tail is not None:
+            img = img - self.later_deficit(y, body, lo, hi, src)
+        return img
+
+    def _legs_flat(self, flat: "FlatGroups", body, keep, l_blk, l_rest, cross_flat) -> torch.Tensor:
+        """(P, 3) the second legs of every group in one compiled pass (``pair_loops.shadow_legs``) and
+        the body rays of the crossing pairs."""
+        from . import pair_loops as pl
+
+        n = len(self.h["pos"])
+        blk, rest = np.zeros((2, n, 3)), np.zeros((2, n, 3))
+        kn = keep.cpu().numpy()
+        blk[:, kn], rest[:, kn] = _f64(l_blk), _f64(l_rest)
+        rad, org, dirs, length, row, lost = pl.loops()["shadow_legs"](*flat, cross_flat, blk, rest,
+                                                                      blk.sum((0, 2)) > 0, 0.0)
+        if len(row):
+            hit = body.occluded_rays(org, dirs, length)
+            np.add.at(rad, row[hit], lost[hit])
+        return self.r._t(rad)
+
+    def _legs(self, groups, body, rec, keep, l_blk, l_rest, crossing) -> torch.Tensor:
+        """(P, 3) the second legs group by group (``crossing``: each group's box test), chunk by chunk:
+        where the camera sees a glossy point or the static visibility is not cached."""
+        r, h = self.r, self.h
+        cos_c = (rec.pts["normal"] * rec.to_cam).sum(-1, keepdim=True)
         out = torch.zeros(len(rec.pixel), 3, device=r.device, dtype=r.dtype)
         ak = self.area[keep]
+        hk = {k: v[keep] for k, v in h.items()}
         at = torch.full((len(h["pos"]),), -1, dtype=torch.long, device=r.device)
         at[keep] = torch.arange(len(keep), device=r.device)  # h index -> its place among the kept
         for g, (rows, hs) in enumerate(groups):
@@ -215,10 +288,7 @@ class SpotShadow:
                     and not rec.glossy[rows[b]].any() else self._second_leg  # the torch one: the reference
                 out[rows[b]] = leg(body, rec, rows[b], cos_c[rows[b]], hg, ak[kk], l_blk[:, kk], l_rest[:, kk], cross[b],
                                    None if vis is None else vis[b][:, sel])
-        img = -r._pixels(rec.scale(out), rec)
-        if tail is not None:
-            img = img - self.later_deficit(y, body, lo, hi, src)
-        return img
+        return out
 
     def _static_visibility(self, g: int, rows: torch.Tensor, hs: torch.Tensor, cos_c) -> torch.Tensor | None:
         """(rows, hs) static visibility V_S(h, x_p) of group ``g`` where x_p faces h, cast once per
@@ -238,6 +308,38 @@ class SpotShadow:
                                     need, geo) > 0)
         self._vis[g] = torch.cat(parts)
         return self._vis[g].to(r.dtype)
+
+    def flat_groups(self) -> "FlatGroups | None":
+        """The person-independent inputs of ``pair_loops.relayed`` as numpy (the camera points'
+        position, normal, kd and cosine toward the camera; each group's rows, relay points and
+        static visibility flattened with their offsets; the relay points' position, normal and
+        area), built once per relay set; None where the camera sees a glossy point or a group's
+        static visibility is not cached (the per-group legs then run)."""
+        if self._flat is None:
+            self._flat = self._flatten() or False
+        return self._flat or None
+
+    def _flatten(self) -> "FlatGroups | None":
+        r, rec = self.r, self.r.recv_t
+        if r.device.type != "cpu" or bool(rec.glossy.any()):
+            return None
+        cos_c = (rec.pts["normal"] * rec.to_cam).sum(-1, keepdim=True)
+        groups = self._groups(rec)
+        vis = []
+        for g, (rows, hs) in enumerate(groups):
+            if len(hs) == 0 or len(rows) == 0:
+                vis.append(np.zeros(0, np.bool_))
+                continue
+            if self._static_visibility(g, rows, hs, cos_c) is None:
+                return None
+            vis.append(self._vis[g].cpu().numpy().reshape(-1))
+        offsets = lambda parts: np.concatenate([[0], np.cumsum([len(x) for x in parts])]).astype(np.int64)
+        rows = [x.cpu().numpy().astype(np.int64) for x, _ in groups]
+        hs = [x.cpu().numpy().astype(np.int64) for _, x in groups]
+        cat = lambda parts, dt: np.concatenate(parts).astype(dt) if parts else np.zeros(0, dt)
+        return FlatGroups(_f64(rec.pts["pos"]), _f64(rec.pts["normal"]), _f64(rec.pts["kd"]), _f64(cos_c.reshape(-1)),
+                          cat(rows, np.int64), offsets(rows), _f64(self.h["pos"]), _f64(self.h["normal"]),
+                          _f64(self.area), cat(hs, np.int64), offsets(hs), cat(vis, np.bool_), offsets(vis))
 
     def _groups(self, rec) -> list[tuple[torch.Tensor, torch.Tensor]]:
         """(camera sub-samples, points h) that exchange light: all with all, or under footprint

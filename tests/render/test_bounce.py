@@ -87,3 +87,21 @@ def test_a_coarser_body_averages_to_the_bounce():
     p = fine.resampled(128, 0.3)
     assert len(p) == 128 and np.isclose(p.area.sum(), sc.human.mesh.face_areas().sum(), rtol=1e-12)
     assert np.allclose(np.linalg.norm(p.normal, axis=1), 1) and p.closed == fine.closed
+
+
+def test_bounce_and_shadow_loops_on_two_threads_equal_one():
+    """The parallel loops (``pair_loops.relay_exchange``'s blocks of body samples, each adding to its
+    own copy of the relay light; ``relayed``, ``cross_groups``, ``shadow_legs`` over groups) give
+    the serial twins' sums."""
+    settings = dataclasses.replace(SETTINGS, pixel_footprint=2)  # depth 4: the later relays sum in float32
+    before = torch.get_num_threads()
+    out = {}
+    try:
+        for n in (1, 2):
+            torch.set_num_threads(n)
+            _, out[n] = _render(settings, ("nlos_bounce", "nlos_shadow"))
+    finally:
+        torch.set_num_threads(before)
+    for c in ("nlos_bounce", "nlos_shadow"):
+        assert np.abs(out[1][c]).max() > 0
+        np.testing.assert_allclose(out[2][c], out[1][c], rtol=1e-9, atol=1e-12 * np.abs(out[1][c]).max())

@@ -56,28 +56,40 @@ def test_shadow_needs_the_body_in_the_way():
     assert lost < 0 and abs(lost) < 0.2 * float(near["nlos"].sum())
 
 
-@pytest.mark.parametrize("footprint", [0, 2])
-def test_compiled_second_leg_equals_the_torch_one(monkeypatch, footprint):
-    """The shadow through the compiled second leg (``pair_loops.shadow_leg``) and through the torch
-    one it replaces on diffuse camera points (the reference), float64: the same image to 1e-9."""
+@pytest.mark.parametrize("footprint,depth", [(0, 4), (2, 4), (2, 10)])
+def test_compiled_second_leg_equals_the_torch_one(monkeypatch, footprint, depth):
+    """The shadow through the compiled legs of every group at once (``pair_loops.cross_groups``,
+    ``shadow_legs`` and, past the first relay, ``relayed``), through the compiled leg group by group
+    (``pair_loops.shadow_leg``) and through the torch one they replace on diffuse camera points (the
+    reference), float64: the same image to 1e-9."""
     from nlos_spotlight.render.shadow import SpotShadow
 
     sc = corner_scene("diffuse_corner", 12)
     settings = RenderSettings(pixel_samples=2, transport_pixel_samples=1, pixel_footprint=footprint, spot_samples=32,
-                              person_samples=128, shadow_samples=1024, dtype="float64", rays="embree")
+                              person_samples=128, shadow_samples=1024, dtype="float64", rays="embree",
+                              shadow_depth=depth)
     person = Person.from_mesh(sc.human.mesh, sc.human.albedo, 128)
+    used = []
+    flat = SpotShadow.flat_groups
+    monkeypatch.setattr(SpotShadow, "flat_groups", lambda self: used.append(flat(self)) or used[-1])
 
     def shadow(t):
         r = Renderer(sc, settings, aim_points=SPOT_TARGET[None])
         with torch.no_grad():
             return r.render(r.spot_vector(0), person, translation=t, components=("nlos_shadow",))["nlos_shadow"]
 
-    got = [shadow(t) for t in ([0.0, 0.0], [0.3, -0.2])]
-    monkeypatch.setattr(SpotShadow, "_second_leg_loops", SpotShadow._second_leg)
-    want = [shadow(t) for t in ([0.0, 0.0], [0.3, -0.2])]
-    for g, w in zip(got, want):
-        assert float(w.abs().max()) > 0
-        assert torch.allclose(g, w, rtol=1e-9, atol=1e-12 * float(w.abs().max()))
+    paths = []
+    for step in ("flat", "per group", "torch"):
+        if step == "per group":
+            assert used and all(u is not None for u in used)  # the one-call path ran
+            monkeypatch.setattr(SpotShadow, "flat_groups", lambda self: None)
+        if step == "torch":
+            monkeypatch.setattr(SpotShadow, "_second_leg_loops", SpotShadow._second_leg)
+        paths.append([shadow(t) for t in ([0.0, 0.0], [0.3, -0.2])])
+    for got in paths[:2]:
+        for g, w in zip(got, paths[2]):
+            assert float(w.abs().max()) > 0
+            assert torch.allclose(g, w, rtol=1e-9, atol=1e-12 * float(w.abs().max()))
 
 
 def test_relay_offsets_are_draws_of_one_estimate():
