@@ -94,7 +94,7 @@ def body_relay(sh: "SpotShadow", rays, o: torch.Tensor, normal: torch.Tensor, l_
     gradients a closed body runs as compiled loops (:func:`_body_relay_loops`); these torch blocks
     stay the reference they are tested against."""
     r, h = sh.r, sh.h
-    if closed and LOOP_PAIRS > 0 and r._loops(o, l_front, l_relay):
+    if closed and LOOP_PAIRS > 0 and r._loops(o, normal, l_front, l_back, area, albedo, l_relay):
         return _body_relay_loops(sh, rays, o, normal, l_front, l_back, area, albedo, l_relay)
     e_front = torch.zeros(len(o), 3, device=r.device, dtype=r.dtype)
     e_back = torch.zeros_like(e_front)
@@ -120,7 +120,7 @@ def body_relay(sh: "SpotShadow", rays, o: torch.Tensor, normal: torch.Tensor, l_
 
 LOOP_PAIRS = 1 << 22
 """Body sample x relay point pairs per block of :func:`_body_relay_loops` (bounds its rays: about
-64 MB a block); 0: the torch blocks instead (the reference path of ``benchmarks/shadow_step_speed.py``)."""
+64 MB a block); 0: the torch blocks instead (the reference path of ``benchmarks/render_throughput.py --shadow``)."""
 
 
 def _body_relay_loops(sh: "SpotShadow", rays, o, normal, l_front, l_back, area, albedo, l_relay):

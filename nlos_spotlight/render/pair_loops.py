@@ -365,7 +365,7 @@ def shadow_legs(rp, rn, kd, cos_c, rows, row_start, hp, hn, area, hs, hs_start, 
     org = np.empty((m, 3), np.float32)
     dirs = np.empty((m, 3), np.float32)
     length = np.empty(m, np.float32)
-    row = np.empty(m, np.int64)
+    row = np.empty(m, np.int32)
     lost = np.empty((m, 3))
     for g in prange(n_g):
         h0, nh = hs_start[g], hs_start[g + 1] - hs_start[g]

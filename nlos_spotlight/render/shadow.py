@@ -13,8 +13,10 @@ partition's back) toward a visible point x_p, blocked by the body on x_s -> h or
 (1 - V_H V_H' = (1 - V_H) + V_H (1 - V_H')). Only a segment that crosses the body's bounding box
 can be blocked, so body rays are cast only there, and only the points h with blocked light or
 with a crossing segment toward the camera's points enter the sums. On a CPU the box test and the
-second leg over diffuse camera points run as compiled loops (``pair_loops.segments_cross_box``,
-``pair_loops.shadow_leg``); the torch versions here stay the reference they are tested against.
+second leg over diffuse camera points run as compiled loops: with the static visibility cached, over
+every camera-point group in one call (``pair_loops.cross_groups``, ``pair_loops.shadow_legs``, on
+:class:`FlatGroups`), else group by group (``pair_loops.segments_cross_box``, ``pair_loops.shadow_leg``);
+the torch versions here stay the reference they are tested against.
 
 Approximations, each small where this term matters: h is ``shadow_samples`` stratified area
 samples of all static surfaces; h reflects as a Lambertian of albedo kd + ks (the hidden
@@ -294,9 +296,14 @@ class SpotShadow:
         """(rows, hs) static visibility V_S(h, x_p) of group ``g`` where x_p faces h, cast once per
         renderer (it does not depend on the person); None where it would hold over
         :data:`STATIC_CACHE_PAIRS` pairs (then each person casts its own)."""
+        mask = self._static_mask(g, rows, hs, cos_c)
+        return None if mask is None else mask.to(self.r.dtype)
+
+    def _static_mask(self, g: int, rows: torch.Tensor, hs: torch.Tensor, cos_c) -> torch.Tensor | None:
+        """:meth:`_static_visibility` as the cached bool mask itself (no copy)."""
         r = self.r
         if g in self._vis:
-            return self._vis[g].to(r.dtype)
+            return self._vis[g]
         if len(rows) * len(hs) > STATIC_CACHE_PAIRS:
             return None
         hp, hn = self.h["pos"][hs], self.h["normal"][hs]
@@ -307,7 +314,7 @@ class SpotShadow:
             parts.append(r._visible(r.rays, r.recv_t.pts["pos"][sl], r.recv_t.pts["normal"][sl], hp, hn,
                                     need, geo) > 0)
         self._vis[g] = torch.cat(parts)
-        return self._vis[g].to(r.dtype)
+        return self._vis[g]
 
     def flat_groups(self) -> "FlatGroups | None":
         """The person-independent inputs of ``pair_loops.relayed`` as numpy (the camera points'
@@ -330,9 +337,10 @@ class SpotShadow:
             if len(hs) == 0 or len(rows) == 0:
                 vis.append(np.zeros(0, np.bool_))
                 continue
-            if self._static_visibility(g, rows, hs, cos_c) is None:
+            mask = self._static_mask(g, rows, hs, cos_c)
+            if mask is None:
                 return None
-            vis.append(self._vis[g].cpu().numpy().reshape(-1))
+            vis.append(mask.cpu().numpy().reshape(-1))
         offsets = lambda parts: np.concatenate([[0], np.cumsum([len(x) for x in parts])]).astype(np.int64)
         rows = [x.cpu().numpy().astype(np.int64) for x, _ in groups]
         hs = [x.cpu().numpy().astype(np.int64) for _, x in groups]

@@ -46,13 +46,19 @@ def test_bounce_is_mitsubas_fifth_bounce():
     assert np.corrcoef(blocks(ours["nlos_bounce"]), blocks(extra))[0, 1] > 0.97
 
 
-def test_bounce_loops_equal_the_torch_leg_and_scale_with_albedo():
-    """The compiled second leg (CPU, static visibility cached) against the torch one; and the term
-    is linear in the body's albedo (each path meets the body once)."""
+def test_bounce_loops_equal_the_torch_leg_and_scale_with_albedo(monkeypatch):
+    """The compiled legs (CPU, static visibility cached) and body <-> relay exchange, in one block
+    and in blocks of a few body samples, against the torch ones; and the term is linear in the
+    body's albedo (each path meets the body once)."""
+    from nlos_spotlight.render import bounce
+
     _, loops = _render(SETTINGS, ("nlos_bounce",))
+    monkeypatch.setattr(bounce, "LOOP_PAIRS", 5 * SETTINGS.shadow_samples)
+    _, blocks = _render(SETTINGS, ("nlos_bounce",))
     _, dense = _render(dataclasses.replace(SETTINGS, pair_loops=False), ("nlos_bounce",))
-    a, b = loops["nlos_bounce"], dense["nlos_bounce"]
-    assert np.linalg.norm(a - b) <= 1e-9 * np.linalg.norm(b) and b.sum() > 0
+    b = dense["nlos_bounce"]
+    for a in (loops["nlos_bounce"], blocks["nlos_bounce"]):
+        assert np.linalg.norm(a - b) <= 1e-9 * np.linalg.norm(b) and b.sum() > 0
     sc = corner_scene("diffuse_corner", RES)
     r = Renderer(sc, SETTINGS, aim_points=SPOT_TARGET[None])
     imgs = []
@@ -93,6 +99,10 @@ def test_bounce_and_shadow_loops_on_two_threads_equal_one():
     """The parallel loops (``pair_loops.relay_exchange``'s blocks of body samples, each adding to its
     own copy of the relay light; ``relayed``, ``cross_groups``, ``shadow_legs`` over groups) give
     the serial twins' sums."""
+    from nlos_spotlight.render import pair_loops
+
+    if pair_loops.numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba runs one thread here: the parallel loops cannot be told from the serial ones")
     settings = dataclasses.replace(SETTINGS, pixel_footprint=2)  # depth 4: the later relays sum in float32
     before = torch.get_num_threads()
     out = {}
@@ -100,6 +110,7 @@ def test_bounce_and_shadow_loops_on_two_threads_equal_one():
         for n in (1, 2):
             torch.set_num_threads(n)
             _, out[n] = _render(settings, ("nlos_bounce", "nlos_shadow"))
+            assert pair_loops.loops() is (pair_loops.SERIAL if n == 1 else pair_loops.PARALLEL)
     finally:
         torch.set_num_threads(before)
     for c in ("nlos_bounce", "nlos_shadow"):
