@@ -130,10 +130,10 @@ def _body_relay_loops(sh: "SpotShadow", rays, o, normal, l_front, l_back, area, 
     Profiled in the copy room at the fit's settings (1,024 body samples, 4,096 relay points, two
     threads), those blocks took about two thirds of the bounce's body <-> relay time, the rays the rest."""
     from . import pair_loops as pl
+    from .shadow import _f64 as f64
 
     r, h = sh.r, sh.h
     pl.set_threads(torch.get_num_threads())
-    f64 = lambda x: x.detach().double().cpu().numpy()
     hp, hn = f64(h["pos"]), f64(h["normal"])
     on, oo = f64(normal), f64(o)
     lo_f, lo_b = f64(l_front * area.unsqueeze(-1)), f64(l_back * area.unsqueeze(-1))
