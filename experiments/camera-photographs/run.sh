@@ -31,7 +31,8 @@ $PY benchmarks/robustness.py --model copyroom:relay=out/people-curve2/copyroom-3
 # the bounce's near field
 $PY -m nlos_spotlight.cli fit --config $ROOMS/copyroom.yaml --out out/people-curve2/copyroom-3000 --people 3000 \
     --device cpu --resume --quiet
-$PY benchmarks/drift_directions.py --model out/people-curve2/copyroom-3000 --out docs/results/drift-directions.csv
+# the drift fit's person directions (docs/results/drift-directions.csv), archived: git show
+# archive/studies-2026-11-29:benchmarks/drift_directions.py > drift_directions.py, then run it beside benchmarks/robustness.py
 $PY benchmarks/robustness.py --model copyroom:relay=out/people-curve2/copyroom-3000 --no-render --noise-draws 1 \
     --magnitudes 2 --out out/robustness8/copyroom-flags-only.csv
 $PY -m nlos_spotlight.cli fit --config $ROOMS/copyroom.yaml --out out/fits8/copyroom-bounce19 --people 3000 \

@@ -20,17 +20,13 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from nlos_spotlight.data.static import read_static
 from nlos_spotlight.data.config import DatasetConfig
-from nlos_spotlight.data.config import transport_count
 from nlos_spotlight.data.generate import plan
-from nlos_spotlight.data.scene_builder import SceneBuilder
 from nlos_spotlight.evaluate.crb import position_crb
+from nlos_spotlight.evaluate.dataset_people import room_renderer, seen_test_specs
 from nlos_spotlight.render.person import Person
 from nlos_spotlight.render.sensor import SensorConfig
-from nlos_spotlight.render.transport import Renderer, RenderSettings
 from nlos_spotlight.world.body import posed_body
-from nlos_spotlight.world.rooms import generate_room
 
 
 def policy_spots(runs: Path) -> dict[str, list[int]]:
@@ -42,25 +38,6 @@ def policy_spots(runs: Path) -> dict[str, list[int]]:
         if r["people_per_room"] > best.get(policy, (-1, None))[0]:
             best[policy] = (r["people_per_room"], r["spots"])
     return {p: s for p, (_, s) in best.items()}
-
-
-def room_renderer(cfg: DatasetConfig, p, data: Path, faces: list[int]):
-    """(builder, scene, renderer) of training room ``p`` with the dataset's settings, spots ``faces``."""
-    b = SceneBuilder(cfg, p, data)
-    scene = generate_room(p.seed, b._room_config()).scene
-    st = read_static(b.dir)
-    settings = RenderSettings(pixel_samples=cfg.pixel_samples, transport_pixel_samples=cfg.transport_pixel_samples,
-                              spot_samples=cfg.spot_samples, person_samples=cfg.person_samples, device="cpu")
-    return b, scene, Renderer(scene, settings, aim_points=st["aim_points"][faces])
-
-
-def seen_test_specs(cfg: DatasetConfig, p, builder, scene, people: int) -> list[dict]:
-    """The first ``people`` test people of ``evaluate.seen`` (image sample k - m with (k - m) % 10
-    == 9, m the room's full-transport people), re-posed from the dataset's deterministic specs."""
-    specs = builder._specs(scene)
-    m = transport_count(cfg, p.split)
-    keep = [k for k in range(m, len(specs)) if (k - m) % 10 == 9 and specs[k]["trajectory"] < 0][:people]
-    return [specs[k] | {"index": k} for k in keep]
 
 
 def main() -> None:

@@ -48,6 +48,7 @@ from scipy.stats import norm
 from nlos_spotlight.data.config import DatasetConfig
 from nlos_spotlight.data.generate import plan
 from nlos_spotlight.evaluate.crb import PERSON
+from nlos_spotlight.evaluate.dataset_people import room_renderer, seen_test_specs, static_specs
 from nlos_spotlight.evaluate.ideal_observer import ideal_observer
 from nlos_spotlight.fit.ceiling import jacobian  # the nuisance steps and derivatives of the fit's ceiling
 from nlos_spotlight.lighting.snr import candidate_snr
@@ -56,7 +57,6 @@ from nlos_spotlight.render.sensor import SensorConfig
 from nlos_spotlight.render.sensor import auto_exposure, dn_per_radiance, noise_variance_dn
 from nlos_spotlight.render.transport import Renderer
 from nlos_spotlight.world.body import POSTURES, posed_body
-from position_crb import room_renderer, seen_test_specs  # this folder: run as a script
 
 def light(r: Renderer, y: torch.Tensor, params, t: np.ndarray, cfg: DatasetConfig) -> torch.Tensor:
     """(H, W, 3) the person's light (the image terms that depend on the person), radiance units."""
@@ -78,8 +78,7 @@ def room_people(cfg: DatasetConfig, p, builder, scene, people: int, split: str) 
     first static people of a test room."""
     if split == "train":
         return seen_test_specs(cfg, p, builder, scene, people)
-    specs = builder._specs(scene)
-    return [specs[k] | {"index": k} for k in range(len(specs)) if specs[k]["trajectory"] < 0][:people]
+    return static_specs(builder, scene, people)
 
 
 def oracle_face(data: Path, room: str) -> int:

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from learning_curve import load_rooms  # this folder: run as a script
+from nlos_spotlight.data.tensors import load_split
 from nlos_spotlight.evaluate.seen import run_seen, seen_config, split_room
 from nlos_spotlight.train.config import TrainConfig
 
@@ -107,7 +107,7 @@ def main() -> None:
     ap.add_argument("--quiet", action="store_true")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
-    rooms = [split_room(s) for s in load_rooms(Path(args.data))]
+    rooms = [split_room(s) for s in load_split(Path(args.data), "train", ["normals"], samples="images")]
     rooms = rooms[:args.rooms] if args.rooms else rooms
     if args.n > min(r.pool.num_samples for r in rooms):
         raise SystemExit(f"error: the rooms hold {min(r.pool.num_samples for r in rooms)} pool people, fewer than "

@@ -40,25 +40,12 @@ from pathlib import Path
 import numpy as np
 import torch
 
-# this folder: run as a script
-from unseen_room_fit import (first_seconds, read_fit_rows, room_interval, static_people, training_split,
-                             write_rows)
-
 from nlos_spotlight.errors import NlosError
+from nlos_spotlight.evaluate.room_fits import (first_seconds, read_fit_rows, room_interval, room_range,
+                                              static_people, training_split, write_rows)
 
 COLUMNS = ["room", "role", "kind", "spot", "people", "posture_accuracy", "posture3_accuracy", "error_cm",
            "mean_answer_cm", "train_s"]
-
-
-def room_range(text: str) -> list[int]:
-    """'0-5' -> [0, ..., 5]; '0,3,7' -> [0, 3, 7]."""
-    try:
-        if "-" in text:
-            a, b = (int(x) for x in text.split("-"))
-            return list(range(a, b + 1))
-        return [int(x) for x in text.split(",")]
-    except ValueError:
-        raise SystemExit(f"expected rooms as A-B or A,B,C, got {text!r}") from None
 
 
 def fit_rows(fits: Path, variant: str) -> dict:
@@ -239,4 +226,7 @@ def summary(args) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except NlosError as exc:  # a malformed variant or room range: one line
+        raise SystemExit(f"error: {exc}") from None

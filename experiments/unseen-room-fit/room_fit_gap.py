@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from unseen_room_fit import parse_variant, run_dir, training_split, write_rows  # this folder: run as a script
+from nlos_spotlight.errors import NlosError
+from nlos_spotlight.evaluate.room_fits import parse_variant, run_dir, training_split, write_rows
 
 COLUMNS = ["room", "variant", "split", "people", "posture_accuracy", "posture3_accuracy", "error_cm"]
 
@@ -92,4 +93,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except NlosError as exc:  # a malformed variant or room range: one line
+        raise SystemExit(f"error: {exc}") from None

@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from unseen_room_fit import read_fit_rows, run_dir, static_people, training_split, write_rows  # this folder: run as a script
+from nlos_spotlight.errors import NlosError
+from nlos_spotlight.evaluate.room_fits import read_fit_rows, run_dir, static_people, training_split, write_rows
 
 COLUMNS = ["room", "variant", "weights", "step", "split", "people", "posture_accuracy", "posture3_accuracy",
            "error_cm"]
@@ -123,4 +124,7 @@ def report(rows: list[dict], variants: list[str]) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except NlosError as exc:  # a malformed variant or room range: one line
+        raise SystemExit(f"error: {exc}") from None

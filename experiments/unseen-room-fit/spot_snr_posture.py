@@ -30,7 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from unseen_room_fit import parse_variant, read_fit_rows, write_rows  # this folder: run as a script
+from nlos_spotlight.errors import NlosError
+from nlos_spotlight.evaluate.room_fits import parse_variant, read_fit_rows, write_rows
 
 COLUMNS = ["room", "base", "other", "base_face", "other_face", "base_snr", "other_snr", "oracle_snr",
            "other_rank", "seeds", "six_way_test_diff", "six_way_sim_diff", "error_sim_diff_cm"]
@@ -185,4 +186,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except NlosError as exc:  # a malformed variant or room range: one line
+        raise SystemExit(f"error: {exc}") from None

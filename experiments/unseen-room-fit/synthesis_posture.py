@@ -63,8 +63,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from fitted_rooms_transfer import room_range  # this folder: run as a script
-from unseen_room_fit import read_fit_rows, room_interval, run_dir, static_people, write_rows
+from nlos_spotlight.errors import NlosError
+from nlos_spotlight.evaluate.room_fits import read_fit_rows, room_interval, room_range, run_dir, static_people, write_rows
 
 from nlos_spotlight.data.static import read_static
 from nlos_spotlight.data.store import atomic_npz
@@ -508,4 +508,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except NlosError as exc:  # a malformed variant or room range: one line
+        raise SystemExit(f"error: {exc}") from None

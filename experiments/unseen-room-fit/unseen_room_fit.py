@@ -55,7 +55,6 @@ Resumable: a room's dataset resumes, a trained room keeps ``best.pt``.
 from __future__ import annotations
 
 import argparse
-import csv
 import dataclasses
 import json
 import time
@@ -66,7 +65,9 @@ import torch
 
 from nlos_spotlight.data.static import read_static
 from nlos_spotlight.errors import NlosError
-from nlos_spotlight.lighting.oracle import SNR_RANKS
+from nlos_spotlight.evaluate.room_fits import (ARCHS, LIGHTS, VARIANT_HELP, first_seconds, fitted_spot, light_policy,
+                                              parse_variant, read_fit_rows, room_interval, run_dir, static_people,
+                                              training_split, write_rows)
 
 COLUMNS = ["room", "variant", "spot", "people", "posture_accuracy", "posture3_accuracy", "error_cm", "mean_answer_cm",
            "test_people", "render_s", "train_s"]
@@ -97,121 +98,6 @@ def later_render_spots(first: Path, later: Path) -> list[int]:
     return stored_spots(next((first / "scenes").iterdir()))
 
 
-@dataclasses.dataclass
-class Variant:
-    """One network's capture and training on a fitted room's people (``--variants``)."""
-
-    frames: int
-    """Frames a still capture averages (training and test photographs)."""
-    albedo: bool
-    """Albedo augmentation (``TrainConfig.albedo_augment``)."""
-    epochs: float | None
-    """Passes over the training people; None: ``--epochs``."""
-    people: int | None = None
-    """Only the first this many training people; None: all of them."""
-    weight_decay: float | None = None
-    """Adam's L2 weight decay; None: the seen-rooms recipe's."""
-    renders: int = 1
-    """Training people from this many independent renders of ``--people`` each (the validation and
-    held-out people always from the first)."""
-    train_seed: int = 0
-    """Added to ``--seed`` for the training only (weights, batches, training noise); the scores keep
-    ``--seed``'s noise draws, so two training seeds are scored on the same photographs."""
-    init: bool = False
-    """Start from ``--init``'s weights and input (a network trained in other rooms,
-    ``fitted_rooms_transfer.py``) instead of random weights."""
-    light: str = "fit"
-    """The room's illumination for training and test photographs: 'fit' (the spot chosen from the
-    simulated people, ``nlos fit``'s), or a fixed policy of a baseline (:data:`LIGHTS`)."""
-    arch: str = "resnet18"
-    """The network: the seen-rooms recipe's light ResNet, or a baseline's (:data:`ARCHS`)."""
-    hidden_lux: float | None = None
-    """The hidden region's illuminance (lux) in training and test photographs instead of the room's
-    own (``world.calibration.HIDDEN_LUX``, 0.1-2 lux): 0 leaves the person only the projector's light
-    (``train.imaging.relit_hidden_region``: exact, nothing rendered again)."""
-
-    def describe(self) -> str:
-        what = f"{self.frames}-frame burst" if self.frames > 1 else "one frame"
-        return ((f"{ARCHS[self.arch]}, " if self.arch != "resnet18" else "")
-                + (f"{LIGHTS[self.light]}, " if self.light != "fit" else "") + what
-                + ", albedo augmentation" * self.albedo + (f", {self.epochs:g} epochs" if self.epochs else "")
-                + (f", weight decay {self.weight_decay:g}" if self.weight_decay is not None else "")
-                + (f", people of {self.renders} renders" if self.renders > 1 else "")
-                + (f", training seed +{self.train_seed}" if self.train_seed else "")
-                + (", started from a network of other rooms" if self.init else "")
-                + (f", hidden region at {self.hidden_lux:g} lux" if self.hidden_lux is not None else ""))
-
-
-LIGHTS = {"adaptive": "Adaptive Lighting spot", "center": "center spot", "flash": "flash", "ambient": "projector off",
-          **{f"rank{k}": f"spot of SNR rank {k}" for k in SNR_RANKS}}
-"""'+NAME': train and test under this fixed policy (``lighting.POLICIES``) instead of the fitted spot;
-'+rankK': the fitted room's K-th best spot by its simulated people's SNR (the fit's spot is rank 1)."""
-
-
-def light_policy(light: str) -> str:
-    """The ``lighting.POLICIES`` name of a variant's light ('fit' is the oracle on the fitted room's
-    simulated people, 'rankK' its K-th best spot by SNR)."""
-    return "oracle" if light == "fit" else f"oracle-{light[4:]}" if light.startswith("rank") else light
-
-
-def fitted_spot(light: str) -> bool:
-    """Whether the light is chosen from the fitted room's simulated people (so the test room, whose
-    own SNR comes from its test people, must not choose again: its face is the fit's)."""
-    return light == "fit" or light.startswith("rank")
-
-ARCHS = {"chandran": "Chandran's CNN", "tancik": "Tancik's network", "dlnlos": "DL-NLOS's network"}
-"""'+NAME': this baseline network (``models.baselines``) instead of the light ResNet."""
-
-VARIANT_HELP = ("FRAMES[+albedo][+eEPOCHS][+pPEOPLE][+wdDECAY][+xRENDERS][+sSEED][+init][+LIGHT][+ARCH][+luxLUX] "
-                "(e.g. 16+albedo, 16+e120, 16+e120+p1396, 16+wd1e-3, 16+e120+x2, 16+e120+x2+s1, 16+e120+init, "
-                f"16+e120+adaptive+chandran, 16+e120+lux0, 16+e120+ambient+lux0.01; LIGHT: {', '.join(LIGHTS)}; ARCH: {', '.join(ARCHS)})")
-
-
-def _number(text: str, kind: type) -> float | None:
-    try:
-        v = kind(text)
-    except ValueError:
-        return None
-    return v if v >= 0 else None
-
-
-def parse_variant(spec: str) -> Variant:
-    """'16' -> 16 frames a still capture; '+albedo' adds albedo augmentation, '+eN' N epochs, '+pN'
-    only the first N training people, '+wdX' weight decay X, '+xN' people of N renders, '+sN' training
-    seed +N, '+init' the weights of ``--init`` (e.g. '16+albedo', '16+e120+p1396', '16+e120+x2+s1')."""
-    frames, *extra = spec.split("+")
-    v = Variant(int(frames) if frames.isdigit() else 0, False, None)
-    kind = lambda e: (e if e in ("albedo", "init") else "light" if e in LIGHTS else "arch" if e in ARCHS
-                      else "wd" if e.startswith("wd") else "lux" if e.startswith("lux") else e[:1])
-    ok = v.frames >= 1 and len({kind(e) for e in extra}) == len(extra)  # each option at most once
-    for e in extra:
-        if e == "albedo":
-            v.albedo = True
-        elif e == "init":
-            v.init = True
-        elif e in LIGHTS:
-            v.light = e
-        elif e in ARCHS:
-            v.arch = e
-        elif e.startswith("wd"):
-            v.weight_decay = _number(e[2:], float)
-            ok &= v.weight_decay is not None
-        elif e.startswith("lux"):  # 0 allowed: no hidden light at all
-            v.hidden_lux = _number(e[3:], float)
-            ok &= v.hidden_lux is not None
-        elif e[:1] in ("e", "p", "x", "s"):
-            n = _number(e[1:], float if e[0] == "e" else int)
-            ok &= bool(n)
-            if n:
-                setattr(v, {"e": "epochs", "p": "people", "x": "renders", "s": "train_seed"}[e[0]], n)
-        else:
-            ok = False
-    ok &= not (v.init and v.arch != "resnet18")  # --init holds a light ResNet's weights
-    if not ok:
-        raise SystemExit(f"--variants: expected {VARIANT_HELP}, got {spec!r}")
-    return v
-
-
 def room_hidden_lux(room: Path) -> float:
     """The illuminance (lux) of a room's hidden region, from its scene file."""
     from nlos_spotlight.scene.io import load_scene
@@ -224,56 +110,9 @@ def room_hidden_lux(room: Path) -> float:
     return lux
 
 
-def run_dir(room_out: Path, spec: str) -> Path:
-    """A variant's run folder in a fitted room's folder ('1': ``run``, the first fits' name)."""
-    return room_out / ("run" if spec == "1" else f"run-{spec.replace('+', '-')}")
-
-
-def training_split(data: Path):
-    """A fitted room's render split into training pool, 100 validation and 100 held-out people."""
-    from nlos_spotlight.data.tensors import load_split
-    from nlos_spotlight.evaluate.seen import split_room
-
-    s, = load_split(data, "train", ["normals"], samples="images")
-    return split_room(s, period=10, max_eval=100)
-
-
-def write_rows(path: Path, columns: list[str], rows: list[dict]) -> None:
-    """A CSV written atomically (a killed job leaves the previous file whole)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    with tmp.open("w", newline="") as f:
-        w = csv.DictWriter(f, columns)
-        w.writeheader()
-        w.writerows(rows)
-    tmp.replace(path)
-
-
-def read_fit_rows(path: Path) -> list[dict]:
-    """A room-fit CSV's rows (fits written before --variants: variant '1', one frame, no augmentation)."""
-    with path.open(newline="") as f:
-        return [{"variant": "1", **r} for r in csv.DictReader(f)]
-
-
-def static_people(room: Path):
-    """A test room's static people (those a fitted room is scored on; walkers are left out)."""
-    from nlos_spotlight.data.tensors import load_scene_tensors
-
-    t = load_scene_tensors(room, ["normals"], samples="transport")
-    return t.subset(torch.nonzero(t.trajectory[:, 0] < 0).flatten())
-
-
 def scored_rooms(rows: dict) -> set[str]:
     """The rooms of one (people, variant)'s rows {(room, kind): row} scored on simulated people."""
     return {r for r, kind in rows if kind == "heldout"}
-
-
-def first_seconds(path: Path, t0: float) -> float:
-    """Seconds since ``t0`` the first time a step finishes, kept at ``path``: a resumed or rescored
-    room reports the time its work took, not the rerun's."""
-    if not path.exists():
-        path.write_text(json.dumps(time.perf_counter() - t0))
-    return float(json.loads(path.read_text()))
 
 
 def fit_room(args, i: int, room: Path, test_cfg: dict, rows: list[dict], write) -> None:
@@ -752,19 +591,6 @@ def posture_table(out: Path, rooms: dict, variants: list[str]) -> list[str]:
     return lines
 
 
-def room_interval(accuracy: list[float]) -> str:
-    """95% interval of the mean over rooms (Student's t on the per-room accuracies): the rooms are a
-    sample of the test set's layouts, so this holds room-to-room spread and each room's people
-    together, where a binomial interval on the pooled people holds the people only."""
-    if len(accuracy) < 2:
-        return ""
-    from scipy import stats
-
-    a = np.asarray(accuracy)
-    half = stats.t.ppf(0.975, len(a) - 1) * a.std(ddof=1) / np.sqrt(len(a))
-    return f"{max(a.mean() - half, 0):.1f}-{min(a.mean() + half, 100):.1f}%"
-
-
 def people_curve(fits: dict) -> list[str]:
     """Training people against accuracy on the rooms fitted at every size: variants that differ only
     in '+pN' / '+xN' (the same renders, fewer or more of them), so that rooms do not confound people."""
@@ -956,4 +782,7 @@ def paired_change(before: dict, after: dict, rooms: list[str], kind: str, key: s
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except NlosError as exc:  # a malformed variant or room range: one line
+        raise SystemExit(f"error: {exc}") from None

@@ -50,7 +50,8 @@ NOISE_FLOOR = 0.01
 PERSON_DIRECTIONS = 8
 """Person-light columns of the drift fit: the mean and 7 principal directions (99% of the training
 people's light in the copy room; 1 -> 8 columns take the drift flag's false alarms at 2x ``tripod``
-from 7.4% to 2.7%, 16 or 32 add nothing: ``benchmarks/drift_directions.py``)."""
+from 7.4% to 2.7%, 16 or 32 add nothing: ``drift_directions.py``, archived as the git tag
+``archive/studies-2026-11-29``)."""
 
 
 def nuisance_basis(background: torch.Tensor, fraction: torch.Tensor, relative: torch.Tensor) -> torch.Tensor:
