@@ -124,8 +124,8 @@ def _step(title: str, argv: list[str]) -> None:
 
 
 def seen_room(data: Path, out: Path, progress: bool, min_steps: int = 600) -> Path:
-    """Step 5: the seen-rooms recipe (``evaluate.seen``) on the room of ``data``; writes seen-room.md."""
-    from .evaluate.seen import run_seen, seen_config, split_room
+    """Step 5: the seen-rooms recipe (``train.recipe``) on the room of ``data``; writes seen-room.md."""
+    from .train.recipe import run_seen, seen_config, split_room
     from .data.tensors import load_split
 
     rooms = [split_room(s) for s in load_split(data, "train", ["normals"], samples="images")]

@@ -2,7 +2,7 @@
 
 The learning curve (``experiments/seen-rooms-learning-curve/learning_curve.py``,
 ``docs/results/learning-curve.csv``) trains an image network on up to 3,000 people of each of its 3
-rooms and scores the 100 held-out people of each (``evaluate.seen.split_masks``). Here the FloorNet
+rooms and scores the 100 held-out people of each (``train.recipe.split_masks``). Here the FloorNet
 of ``backprojection_net.py`` (this folder), trained on the 200 rooms of the unseen-room datasets and on no person of these rooms, reads the
 same held-out people's photographs (default capture, noise drawn with a fixed seed per room) under
 each policy's spot, through the matched filter of each room's own scan. The answer for the mean is
@@ -88,7 +88,8 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(1)
     from nlos_spotlight.data.tensors import finished_scene_dirs, load_scene_tensors
-    from nlos_spotlight.evaluate.seen import GROUP_OF, split_masks
+    from nlos_spotlight.train.recipe import split_masks
+    from nlos_spotlight.evaluate.seen import GROUP_OF
     from nlos_spotlight.lighting import POLICIES, policy_rng
     from nlos_spotlight.models.floor_net import FloorNet, FloorNetConfig
 

@@ -18,7 +18,7 @@ from pathlib import Path
 def main(argv: list[str] | None = None) -> None:
     import torch
 
-    from nlos_spotlight.evaluate.seen import run_seen
+    from nlos_spotlight.train.recipe import run_seen
     from nlos_spotlight.fit.config import FitConfig
     from nlos_spotlight.fit.train import fit_train_config, room_split
 

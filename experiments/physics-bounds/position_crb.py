@@ -1,7 +1,7 @@
 """Cramer-Rao bound on the floor position of held-out people in the training rooms, per spot policy.
 
 For each training room of a dataset and each policy's spot there (read from the learning-curve runs'
-``result.json``, the spot each run used), the test people of ``nlos_spotlight.evaluate.seen`` (index
+``result.json``, the spot each run used), the test people of ``nlos_spotlight.train.recipe`` (index
 k % 10 == 9) are re-posed from the dataset's deterministic specs, rendered at +-1 cm in x and y
 through the same renderer settings, and the Fisher information of one capture under the default
 sensor (``nlos_spotlight.evaluate.crb``) gives sqrt(trace(J^-1)) per person. Prints the mean per

@@ -1,6 +1,6 @@
 """Which postures give the walls the same light? An ideal observer's distance between postures.
 
-For held-out people of the training rooms (the test people of ``nlos_spotlight.evaluate.seen``,
+For held-out people of the training rooms (the test people of ``nlos_spotlight.train.recipe``,
 re-posed from the dataset's deterministic specs), the person's light under the room's best stored
 spot (the oracle among them, ``spots.json``'s ``snr_top[0]``) is rendered in each of the six
 postures with everything else the same (place, facing, height, build, clothing albedo, pose seed).

@@ -1,6 +1,6 @@
 """What keeps the NLOS network from learning in seen rooms: one change at a time, same data and budget.
 
-Every variant trains on the first N pool people of each training room (``evaluate.seen``'s split:
+Every variant trains on the first N pool people of each training room (``train.recipe``'s split:
 the same validation and test people for all) under the room's oracle spot and is scored on the
 test people. The baseline is the learning curve's recipe (``learning_curve.py``, this folder); each
 other variant changes one thing:
@@ -18,7 +18,7 @@ other variant changes one thing:
 * ``chandran``: Chandran & Jayasuriya's CNN (keeps a 4 x 4 map of where the light falls).
 
 Variants compose with ``+`` (e.g. ``mixed-batches+cifar-stem``). Resumable (the runs of
-``evaluate.seen``); writes ``--out``/learning-ablation.csv.
+``train.recipe``); writes ``--out``/learning-ablation.csv.
 
     python experiments/seen-rooms-learning-curve/learning_ablation.py --data out/lc/data --n 1000 --capture noise-free \\
         --variants baseline,per-room,mixed-batches
@@ -35,7 +35,7 @@ import numpy as np
 import torch
 
 from nlos_spotlight.data.tensors import load_split
-from nlos_spotlight.evaluate.seen import run_seen, seen_config, split_room
+from nlos_spotlight.train.recipe import run_seen, seen_config, split_room
 from nlos_spotlight.train.config import TrainConfig
 
 COLUMNS = ["variant", "capture", "people_per_room", "min_steps", "rooms", "posture_accuracy", "posture3_accuracy", "error_cm",
@@ -62,7 +62,7 @@ CHANGES = {
 
 
 def base_config(args, seed: int, noise: bool) -> TrainConfig:
-    """The learning curve's old recipe under the oracle spot: ``evaluate.seen.seen_config`` with one
+    """The learning curve's old recipe under the oracle spot: ``train.recipe.seen_config`` with one
     room per batch and the ImageNet stem."""
     return seen_config(1, seed, noise, stem="imagenet", batch=args.batch, lr=args.lr, patience=args.patience)
 

@@ -1,6 +1,6 @@
 """The ceiling in seen rooms: posture accuracy and localization error against people per room.
 
-In every training room of a dataset (``nlos_spotlight.evaluate.seen``: 10 % of each room's people
+In every training room of a dataset (``nlos_spotlight.train.recipe``: 10 % of each room's people
 held out as test, 10 % as validation), train the NLOS network on the first N people of each room:
 
 * the oracle spot, N in ``--sizes``, noise-free and with the default capture;
@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from nlos_spotlight.evaluate.seen import run_seen, seen_config, split_room
+from nlos_spotlight.train.recipe import run_seen, seen_config, split_room
 from nlos_spotlight.models.baselines import BASELINES
 from nlos_spotlight.train.config import TrainConfig
 from nlos_spotlight.data.tensors import load_scene_tensors, split_ids
@@ -43,7 +43,7 @@ COLUMNS = ["protocol", "capture", "policy", "people_per_room", "posture_accuracy
 
 
 def base_config(args, seed: int, backbone: str, rooms: int) -> TrainConfig:
-    """The seen-rooms recipe (``evaluate.seen.seen_config``) with our network on ``backbone``
+    """The seen-rooms recipe (``train.recipe.seen_config``) with our network on ``backbone``
     (ResNet-18 with its small-image stem, the lighter one with ``--stem`` and ``--pool-grid``), or a
     baseline network of ``models.registry.NETWORKS`` by name."""
     if backbone in BASELINES:

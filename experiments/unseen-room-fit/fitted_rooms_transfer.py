@@ -65,7 +65,7 @@ class FittedRoom:
 
     name: str
     split: object
-    """``evaluate.seen.RoomSplit``: training pool (every render), validation, 100 held-out simulated people."""
+    """``train.recipe.RoomSplit``: training pool (every render), validation, 100 held-out simulated people."""
     test: object
     """The test room's 30 static test people."""
     spot: int
@@ -93,7 +93,7 @@ def load_room(args, i: int, fits: dict, renders: int) -> FittedRoom:
 def train_config(args, rooms: int, people: int):
     """The per-room fits' recipe (``unseen_room_fit.py`` variant 16+e120), every batch mixing the
     rooms; ``--steps``, or ``--epochs`` passes over the ``people``."""
-    from nlos_spotlight.evaluate.seen import seen_config
+    from nlos_spotlight.train.recipe import seen_config
 
     cfg = seen_config(rooms, args.seed, noise=True, policy="oracle")
     steps = args.steps or max(1, round(args.epochs * people / cfg.batch_size))
@@ -105,7 +105,7 @@ def train_config(args, rooms: int, people: int):
 
 def train(args, rooms: list[FittedRoom]):
     """One network on the training rooms' pools, each room under its fitted spot; resumable."""
-    from nlos_spotlight.evaluate.seen import train_validated
+    from nlos_spotlight.train.recipe import train_validated
     from nlos_spotlight.lighting import Illumination
     from nlos_spotlight.train.loop import Trainer
 

@@ -147,7 +147,7 @@ def photographs(test, face: int, frames: int, seed: int):
     """(d, var, keep): the person's light as photographed (photograph minus empty-room photograph,
     (B, H, W, 3)), its noise variance (the sum of both photographs'), and the unclipped pixels
     (B, H, W) -- the same photographs as ``score_rooms``."""
-    from nlos_spotlight.evaluate.seen import seen_config
+    from nlos_spotlight.train.recipe import seen_config
     from nlos_spotlight.render.sensor import auto_exposure, dn_per_radiance, noise_variance_dn
     from nlos_spotlight.train.imaging import capture, form_images
 

@@ -9,7 +9,7 @@ test room reads posture there, and the gap to the ideal observer
 Per test room of ``--test`` (the first ``--rooms``): ``--people`` synthetic people in that room's
 scene (``DatasetConfig.room``; another master seed, so none is a test person), the first
 ``--transport`` of them with full transport to choose the spot (the oracle on the synthetic people:
-nothing of the test people is used), then the seen-rooms recipe (``evaluate.seen``) on the image
+nothing of the test people is used), then the seen-rooms recipe (``train.recipe``) on the image
 samples, best weights by validation on 100 of them. Scored on the room's real test people (the
 static ones; the default one-frame capture and noise draws of ``experiments/unseen-rooms/unseen_rooms.py``)
 under the spot chosen from the synthetic people and under the room's oracle spot.
@@ -169,7 +169,8 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: 
     """One network for the room's simulated people with the capture and augmentation of ``spec``,
     scored on the room's test people under the fitted spot and the test people's oracle spot."""
     from nlos_spotlight.data.store import atomic_npz
-    from nlos_spotlight.evaluate.seen import score_rooms, seen_config, train_validated
+    from nlos_spotlight.train.recipe import seen_config, train_validated
+    from nlos_spotlight.evaluate.seen import score_rooms
     from nlos_spotlight.evaluate.unseen import room_lights
     from nlos_spotlight.train.imaging import relit_hidden_region
     from nlos_spotlight.train.loop import Trainer

@@ -6,7 +6,7 @@ weights on the dataset's validation rooms, and scores it on the rooms of a test 
 (``unseen-test.yaml``) it never saw, under each spot policy of ``--policies`` there:
 
 * ``image``: the photograph minus the empty-room photograph (the seen-rooms recipe's network,
-  ``evaluate.seen.seen_config``);
+  ``train.recipe.seen_config``);
 * ``geometry``: the same network with the room's per-pixel geometry and the spot's lit fraction
   (``data.geometry``) as ten more input channels.
 * ``chandran``, ``tancik``, ``dlnlos``: the published baselines' networks (docs/baselines.md), Chandran's
@@ -43,7 +43,8 @@ import torch
 
 from nlos_spotlight.data.tensors import finished_scene_dirs, load_scene_tensors
 from nlos_spotlight.data.store import atomic_npz
-from nlos_spotlight.evaluate.seen import score_rooms, seen_config
+from nlos_spotlight.train.recipe import seen_config
+from nlos_spotlight.evaluate.seen import score_rooms
 from nlos_spotlight.evaluate.unseen import as_pairs, mean_answer, room_lights, snr_fraction, train_unseen
 
 COLUMNS = ["net", "capture", "policy", "train_rooms", "seed", "posture_accuracy", "posture3_accuracy", "error_cm",

@@ -28,7 +28,7 @@ def room_renderer(cfg: DatasetConfig, p, data: Path, faces: list[int]):
 
 
 def seen_test_specs(cfg: DatasetConfig, p, builder: SceneBuilder, scene, people: int) -> list[dict]:
-    """The first ``people`` test people of ``evaluate.seen`` in a training room (image sample k - m
+    """The first ``people`` test people of ``train.recipe.split_room`` in a training room (image sample k - m
     with (k - m) % 10 == 9, m the room's full-transport people), each spec with its ``index``."""
     specs = builder._specs(scene)
     m = transport_count(cfg, p.split)

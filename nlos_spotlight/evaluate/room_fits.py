@@ -158,7 +158,7 @@ def run_dir(room_out: Path, spec: str) -> Path:
 def training_split(data: Path):
     """A fitted room's render split into training pool, 100 validation and 100 held-out people."""
     from ..data.tensors import load_split
-    from .seen import split_room
+    from ..train.recipe import split_room
 
     s, = load_split(data, "train", ["normals"], samples="images")
     return split_room(s, period=10, max_eval=100)

@@ -24,7 +24,7 @@ from ..lighting import Illumination, policy_rng
 from ..lighting.learned import policy_named
 from ..train.config import TrainConfig
 from ..train.loop import Trainer
-from .seen import train_validated
+from ..train.recipe import train_validated
 
 
 def room_lights(rooms: list[SceneTensors], policy: str, seed: int, ien=None) -> list[Illumination]:

@@ -12,7 +12,7 @@ Steps, each resumable (a rerun with ``--resume`` skips what is finished and cont
    light each person's body blocks under that spot (``ROOM_MODEL/shadow/``, ``fit/shadow.py``).
    A method without a spot (``FitConfig.light``: the flash, the projector off) has none of these:
    its record says what to photograph and what the fit leaves out (``spot.light_record``).
-4. **train**: the seen-rooms recipe (``evaluate.seen``) with the fit's capture (a burst of
+4. **train**: the seen-rooms recipe (``train.recipe``) with the fit's capture (a burst of
    ``burst_frames``) and its capture variation (``capture_preset``), best weights kept as
    ``ROOM_MODEL/final.pt``.
 5. **report**: the room's ceiling (``fit/ceiling.py``: an ideal observer's posture accuracy and the

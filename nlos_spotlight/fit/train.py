@@ -1,4 +1,4 @@
-"""Train a room model: the seen-rooms recipe (``evaluate.seen``) on the fit's one room."""
+"""Train a room model: the seen-rooms recipe (``train.recipe``) on the fit's one room."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import torch
 
-from ..evaluate.seen import RoomSplit, SeenResult, run_seen, seen_config, split_room
+from ..train.recipe import RoomSplit, SeenResult, run_seen, seen_config, split_room
 from ..train.config import TrainConfig
 from .config import FitConfig
 
@@ -99,7 +99,7 @@ def heldout_positions(s, cfg: FitConfig):
     """(heldout,) int64 positions among the image samples ``s`` of the held-out test people: the one
     rule (``room_split``'s test people, in order)."""
 
-    from ..evaluate.seen import split_masks
+    from ..train.recipe import split_masks
 
     return torch.nonzero(split_masks(s, split_period(s.num_samples, cfg.heldout), cfg.heldout)[2]).flatten()
 

@@ -96,9 +96,9 @@ def test_walks_in_training_rooms_are_held_out_of_training(toy_scene):
 
 
 def test_seen_split_keeps_its_test_people_and_trains_on_everyone_else(toy_scene):
-    """evaluate.seen.split_room: the first max_eval of residues 9 (test) and 8 (validation); every
+    """train.recipe.split_room: the first max_eval of residues 9 (test) and 8 (validation); every
     other static person is in the pool, so a growing room keeps its test people and loses no one."""
-    from nlos_spotlight.evaluate.seen import split_room
+    from nlos_spotlight.train.recipe import split_room
 
     room = toy_scene(n=60)
     room.target[:, 0] = torch.arange(60, dtype=torch.float32)  # the index, to read back who went where
