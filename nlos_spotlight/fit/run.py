@@ -204,7 +204,10 @@ def reuse_people(source: Path, out: Path, record: dict) -> None:
     and render settings; other :data:`TRAINING_ONLY` settings): its ``room/`` copied, its ``data/``
     and ``shadow/`` hard-linked where the file system allows (files are only ever replaced, never
     written in place, so the two fits cannot change each other's; the shadow step keeps the blocks
-    only where their spot and settings are this fit's). Nothing is written outside ``out``."""
+    only where their spot and settings are this fit's), its ``ceiling.json`` copied (a function of
+    the room, its people and the render, all shared, and of the spot, the ceiling's people, the
+    burst and the light, which ``fit.ceiling.ceiling_record`` checks: 4-7 min a fit on 2 cores).
+    Nothing is written outside ``out``."""
     import shutil
 
     source = Path(source)
@@ -233,6 +236,8 @@ def reuse_people(source: Path, out: Path, record: dict) -> None:
     if (source / "shadow").is_dir() and record["settings"].get("shadow_samples"):  # no spot: no shadow to keep
         shutil.copytree(source / "shadow", out / "shadow", copy_function=link)
     shutil.copy2(source / "room.json", out / "room.json")
+    if (source / "ceiling.json").exists():  # the room, its people and the render: ceiling_record checks the rest
+        shutil.copy2(source / "ceiling.json", out / "ceiling.json")
     _atomic_json(out / "fit.json", record)
 
 

@@ -240,6 +240,14 @@ def test_people_from_another_fit(fitted, room_dir, tmp_path):
     a, b = sorted((src / "shadow").glob("block-*.npz")), sorted((out / "shadow").glob("block-*.npz"))
     assert a and [p.stat().st_ino for p in a] == [p.stat().st_ino for p in b]  # same spot: nothing rendered again
     assert load_trained(out).net.nuisance is None and load_trained(src).net.nuisance is not None
+    from nlos_spotlight.fit.ceiling import room_ceiling  # kept, and what computing it again gives
+
+    kept = json.loads((out / "ceiling.json").read_text())
+    assert (out / "ceiling.json").stat().st_mtime_ns == (src / "ceiling.json").stat().st_mtime_ns  # copied, not computed
+    assert kept == json.loads((src / "ceiling.json").read_text()) and report["ceiling"]["people"] == TINY.ceiling_people
+    again = room_ceiling(out, dataclasses.replace(TINY, capture_preset="ideal"), report["spot"], progress=False)
+    for k in ("posture_accuracy_known", "posture_accuracy", "position_crb_cm"):
+        assert again[k] == pytest.approx(kept[k], rel=1e-6), k
     with pytest.raises(NlosError, match="differs in: people"):
         fit_room(str(room_dir), tmp_path / "other", dataclasses.replace(TINY, people=TINY.people + 1), {},
                  progress=False, people_from=src)
