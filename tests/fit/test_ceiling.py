@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import torch
 
-from nlos_spotlight.fit.ceiling import STEPS, crb_m, perturbed
+from nlos_spotlight.fit.ceiling import STEPS, crb_m, jacobian, jacobian_reference, perturbed
 from nlos_spotlight.render.sensor import SensorConfig, noise_variance_dn
 from nlos_spotlight.world.body import BodyParams
 
@@ -54,3 +54,32 @@ def test_each_step_moves_only_its_nuisance():
         moved |= {c for c, a, b in zip("xy", tt, t) if a != b}
         assert moved == {name}, name
         assert (p.posture, p.pose_seed, p.weight) == (base.posture, base.pose_seed, base.weight)
+
+
+@pytest.mark.parametrize("albedo", [(0.4, 0.5, 0.6), (0.995, 0.3, 0.0)])  # a step clipped at 1; a black channel
+def test_jacobian_equals_its_central_differences(small_corner, albedo):
+    """The ceiling's derivatives (albedo columns from the light's linearity, one sampled body for the
+    floor steps) against every column a central difference of two renders."""
+    from types import SimpleNamespace
+
+    from nlos_spotlight.render.transport import Renderer, RenderSettings
+    from nlos_spotlight.scene.examples import SPOT_TARGET
+
+    scene = small_corner
+    r = Renderer(scene, RenderSettings(pixel_samples=1, transport_pixel_samples=1, spot_samples=16,
+                                       person_samples=128, dtype="float64", device="cpu"),
+                 aim_points=SPOT_TARGET[None])
+    y = r.spot_vector(0)
+    dcfg = SimpleNamespace(body_faces=400, person_samples=128, person_quadrature="faces")
+    hr = scene.hidden_region
+    t = np.array([*(hr.min + hr.max) / 2, hr.floor_z])
+    params = BodyParams(posture="sitting", facing_deg=20.0, height_m=1.7, albedo=np.array(albedo))
+    calls, render = [], r.render
+    r.render = lambda *a, **k: calls.append(1) or render(*a, **k)
+    fast = jacobian(r, y, params, t, dcfg)
+    assert len(calls) == 9 + 2 * albedo.count(0.0)  # the light, then x, y, facing and height both ways
+    ref = jacobian_reference(r, y, params, t, dcfg)
+    for j, name in enumerate(STEPS):
+        scale = float(ref[:, j].abs().max())
+        assert scale > 0, name
+        torch.testing.assert_close(fast[:, j], ref[:, j], rtol=1e-9, atol=1e-12 * scale, msg=name)
