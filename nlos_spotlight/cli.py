@@ -579,8 +579,9 @@ def build_parser() -> argparse.ArgumentParser:
                                              "off the scan by camera pose, projector aim, albedo and geometry "
                                              "(tripod, rough); ideal: in the scan itself (default)")
     f.add_argument("--clothing", choices=CLOTHING,
-                   help="clothing albedos training redresses people in: camera (black to white, default), "
-                        "camera-log (the same, dark fabric 4x as often) or dataset (as rendered)")
+                   help="clothing albedos training redresses people in: camera-log (black to white fabric, "
+                        "log-uniform in brightness; default), camera (the same range, uniform: dark fabric "
+                        "a quarter as often) or dataset (as rendered)")
     f.add_argument("--no-projection", action="store_true", help="train under the capture variation without "
                                                                  "projecting its directions out (an ablation)")
     f.add_argument("--preset", default="default", help="default, demo (600 people: make demo), or tiny (tens of "

@@ -213,7 +213,7 @@ def _clothing_albedo(rng: np.random.Generator) -> np.ndarray:
 CAMERA_CLOTHING = ((0.03, 0.9), (0.02, 0.95))
 """Brightness and channel range of clothing a camera meets: black fabric (diffuse reflectance
 0.02-0.05) to white cotton (0.8-0.9). The rendered people's own range (:data:`CLOTHING_BRIGHTNESS`)
-leaves both ends out; room models are trained on this one (``nlos fit --clothing camera``)."""
+leaves both ends out; room models are trained on this one (``nlos fit``: log-uniform, ``--clothing camera-log``)."""
 CLOTHING_RANGES = {"dataset": (CLOTHING_BRIGHTNESS, CLOTHING_ALBEDO_RANGE), "camera": CAMERA_CLOTHING,
                    "camera-log": CAMERA_CLOTHING}
 """Named clothing distributions of :func:`clothing_albedo`."""
