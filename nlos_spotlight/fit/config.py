@@ -107,7 +107,7 @@ class FitConfig:
     dark (0.05) clothing reads 62.1% / 14.3 cm on average against 'camera''s 56.0% / 16.7 cm (the
     office 60.4% against 45.2%: the issue's 10 points met in every room, where 'camera' misses it by
     4.6), the people's own clothing 64.4% / 15.4 cm against 60.9% / 14.3 cm: about 1 cm of error
-    (7%) traded for the clothing real people wear."""
+    (8%) traded for the clothing real people wear."""
     epochs: float = 60.0
     """Passes over the training people (copyroom, 3,000 people, held-out six-way posture / error:
     10 -> 63% / 11.0 cm, 30 -> 74% / 11.6 cm (experiments/fit-budget/fit_budget.py), 60 -> 86% / 11.2 cm (the
