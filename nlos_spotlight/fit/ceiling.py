@@ -19,7 +19,7 @@ light is ``nlos_ambient`` alone, the exposure metered on the room's own light).
 
 Both are upper bounds on what the room model can reach: they know the body's build and pose
 variant, the room exactly, and read one capture without the empty-room photograph's noise or the
-capture's drift. Cost: 6 x 9 renders a person (the albedo columns need none: :func:`jacobian`).
+capture's drift. Cost: 6 x 10 renders a person (the three albedo columns need one: :func:`jacobian`).
 """
 
 from __future__ import annotations
@@ -87,22 +87,31 @@ def jacobian_reference(r, y, params, t: np.ndarray, dcfg) -> torch.Tensor:
 
 
 def jacobian(r, y, params, t: np.ndarray, dcfg, light: torch.Tensor | None = None) -> torch.Tensor:
-    """(H * W * 3, 7) :func:`jacobian_reference`'s derivatives with 6 renders fewer. The person's
-    light in channel c is albedo_c times that channel's transport (one Lambertian bounce off the
-    body), so an albedo column is that channel of ``light`` (``params``' own, rendered here if not
-    given) over albedo_c, times the clipped step's share (clip(a + h) - clip(a - h)) / 2h: the central
-    difference exactly, with no render. The floor steps move the same sampled body."""
+    """(H * W * 3, 7) :func:`jacobian_reference`'s derivatives with 5 renders fewer. The person's
+    light in channel c is affine in albedo_c (one Lambertian bounce off the body: ``nlos`` is
+    albedo_c times that channel's transport; ``nlos_ambient`` is (albedo_c - 1) times the hidden
+    light the body sends back, the light it replaces counted negative), so an albedo column is that
+    channel of ``light`` (``params``' own, rendered here if not given) minus the same body's light at
+    albedo 0, over albedo_c, times the clipped step's share (clip(a + h) - clip(a - h)) / 2h: the
+    central difference exactly, with one render for all three channels. The floor steps move the
+    same sampled body."""
+    from ..evaluate.crb import PERSON
+
     person = _person(params, dcfg)
     light = person_light(r, y, params, t, dcfg, person) if light is None else light
     albedo = np.broadcast_to(np.asarray(params.albedo, np.float64), (3,))
+    black = None  # the body's light at albedo 0 (the hidden light it blocks), rendered once if needed
     cols = []
     for name, h in STEPS.items():
         c = "rgb".index(name[-1]) if name.startswith("albedo_") else None
         if c is not None and albedo[c] > 0:
+            if black is None:
+                dark = dataclasses.replace(person, albedo=np.zeros_like(person.albedo))
+                black = r.render(y, dark, translation=t, components=PERSON).image.double().reshape(-1)
             a = albedo[c]
             share = (min(a + h, 1.0) - max(a - h, 0.0)) / (2 * h)
             col = torch.zeros_like(light)
-            col.view(-1, 3)[:, c] = light.view(-1, 3)[:, c] * (share / a)
+            col.view(-1, 3)[:, c] = (light - black).view(-1, 3)[:, c] * (share / a)
         elif name in ("x", "y"):
             plus, minus = (person_light(r, y, params, perturbed(params, t, name, s)[1], dcfg, person) for s in (h, -h))
             col = (plus - minus) / (2 * h)

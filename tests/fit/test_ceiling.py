@@ -56,20 +56,27 @@ def test_each_step_moves_only_its_nuisance():
         assert (p.posture, p.pose_seed, p.weight) == (base.posture, base.pose_seed, base.weight)
 
 
-@pytest.mark.parametrize("albedo", [(0.4, 0.5, 0.6), (0.995, 0.3, 0.0)])  # a step clipped at 1; a black channel
-def test_jacobian_equals_its_central_differences(small_corner, albedo):
-    """The ceiling's derivatives (albedo columns from the light's linearity, one sampled body for the
-    floor steps) against every column a central difference of two renders."""
+@pytest.mark.parametrize("albedo, hidden, spot", [
+    ((0.4, 0.5, 0.6), 0.0, True),     # the spot's light alone: linear in albedo
+    ((0.4, 0.5, 0.6), 0.02, True),    # with the hidden room's light, which the body blocks: affine
+    ((0.995, 0.3, 0.0), 0.02, True),  # a step clipped at 1; a black channel
+    ((0.4, 0.5, 0.6), 0.02, False),   # the projector off: the hidden light alone
+])
+def test_jacobian_equals_its_central_differences(small_corner, albedo, hidden, spot):
+    """The ceiling's derivatives (albedo columns from one render at albedo 0, one sampled body for
+    the floor steps) against every column a central difference of two renders."""
     from types import SimpleNamespace
 
     from nlos_spotlight.render.transport import Renderer, RenderSettings
     from nlos_spotlight.scene.examples import SPOT_TARGET
+    from nlos_spotlight.scene.format import Ambient
 
     scene = small_corner
+    scene.ambient = Ambient(np.full(3, hidden), np.full(3, hidden)) if hidden else None
     r = Renderer(scene, RenderSettings(pixel_samples=1, transport_pixel_samples=1, spot_samples=16,
                                        person_samples=128, dtype="float64", device="cpu"),
                  aim_points=SPOT_TARGET[None])
-    y = r.spot_vector(0)
+    y = r.spot_vector(0) if spot else torch.zeros_like(r.spot_vector(0))
     dcfg = SimpleNamespace(body_faces=400, person_samples=128, person_quadrature="faces")
     hr = scene.hidden_region
     t = np.array([*(hr.min + hr.max) / 2, hr.floor_z])
@@ -77,7 +84,7 @@ def test_jacobian_equals_its_central_differences(small_corner, albedo):
     calls, render = [], r.render
     r.render = lambda *a, **k: calls.append(1) or render(*a, **k)
     fast = jacobian(r, y, params, t, dcfg)
-    assert len(calls) == 9 + 2 * albedo.count(0.0)  # the light, then x, y, facing and height both ways
+    assert len(calls) == 10 + 2 * albedo.count(0.0)  # the light, at albedo 0, x, y, facing and height both ways
     ref = jacobian_reference(r, y, params, t, dcfg)
     for j, name in enumerate(STEPS):
         scale = float(ref[:, j].abs().max())
