@@ -277,7 +277,8 @@ def _fit_flags(args: argparse.Namespace) -> dict:
     """The ``FitConfig`` fields the command line gives (those not given are absent)."""
     out = {k: getattr(args, k) for k in ("people", "policy", "seed", "workers", "capture_preset", "pixel_footprint",
                                          "shadow_samples", "shadow_relay", "bounce_scale", "bounce_body_samples",
-                                         "shadow_depth", "clothing", "world_variation", "ceiling_people", "render_device", "method")
+                                         "shadow_depth", "clothing", "world_variation", "ceiling_people", "render_device", "method",
+                                         "epochs")
            if getattr(args, k) is not None}
     if args.burst is not None:
         out["burst_frames"] = args.burst
@@ -573,6 +574,8 @@ def build_parser() -> argparse.ArgumentParser:
                                                       "(default 4096); 0: the shadow term left out")
     f.add_argument("--shadow-relay", choices=("per-person", "fixed"), help="the shadow's relay points drawn "
                                                                            "per person (default) or one fixed set")
+    f.add_argument("--epochs", type=float, help="passes over the training people (default 60; a training setting: "
+                                                "--people-from a model of the same room renders nothing again)")
     f.add_argument("--ceiling", dest="ceiling_people", type=int, help="held-out people the room's ceiling (an ideal "
                    "observer's posture accuracy, the position bound) is computed on (default 6; 0: none)")
     f.add_argument("--world-variation", help="calibration error to train under: the people rendered in worlds "

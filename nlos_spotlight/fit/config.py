@@ -175,8 +175,9 @@ class FitConfig:
         if self.people > 100_000 or self.resolution > 256 or self.burst_frames > 1000:
             raise NlosError(f"fit: absurd size (people {self.people}, resolution {self.resolution}, "
                             f"burst {self.burst_frames})")
-        if not (self.epochs > 0):
-            raise NlosError(f"fit: epochs must be positive, got {self.epochs!r}")
+        e = self.epochs
+        if isinstance(e, bool) or not isinstance(e, (int, float)) or not 0 < e <= 10_000:
+            raise NlosError(f"--epochs: expected passes over the training people in (0, 10000], got {e!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2 ** 63:
             raise NlosError(f"--seed: expected an integer from 0 to 2^63 - 1, got {self.seed}")
         from ..render.variation import preset

@@ -331,6 +331,13 @@ def test_config_checks():
     for bad in ({"shadow_depth": 3}, {"shadow_depth": 17}, {"shadow_depth": 6.0}, {"shadow_depth": True}):
         with pytest.raises(Exception, match="--shadow-depth"):
             FitConfig(**bad)
+    for bad in (0.0, -1.0, float("nan"), float("inf"), 1e6, True):
+        with pytest.raises(Exception, match="--epochs"):
+            FitConfig(epochs=bad)
+    from nlos_spotlight.cli import _fit_flags, build_parser
+
+    args = build_parser().parse_args(["fit", "room.ply", "--out", "o", "--epochs", "120"])
+    assert _fit_flags(args)["epochs"] == 120.0 and "epochs" not in _fit_flags(build_parser().parse_args(["fit", "r", "--out", "o"]))
     assert FitConfig().shadow_depth == 10  # the room's later relays of the spot's light, which the body stops too
     no_shadow = FitConfig(shadow_samples=0, bounce=False).to_dict()  # moot without the shadow: recorded as before it
     assert no_shadow["shadow_depth"] == BEFORE["shadow_depth"] == 4
