@@ -74,6 +74,27 @@ class Variant:
         policy = light_policy(self.light)
         return next((m for m in METHODS if (m.policy, m.arch) == (policy, self.arch) and not m.overrides), None)
 
+    def fit_flags(self) -> tuple[list[str], list[str]]:
+        """(the ``nlos fit`` flags that train this variant in a scanned room, the variant's options
+        ``nlos fit`` has no flag for): the burst, the epochs, the people and the method map; albedo
+        augmentation in the dataset's range, several renders, a training seed apart from the master
+        seed, another network's weights, an SNR rank's spot and another hidden light do not."""
+        flags = ["--burst", str(self.frames)]
+        flags += ["--epochs", f"{self.epochs:g}"] if self.epochs else []
+        flags += ["--people", str(self.people)] if self.people else []
+        m = self.method()
+        if m is not None and m.name != "oracle_resnet":  # the fitted spot + ResNet-18 is nlos fit's own
+            flags += ["--method", m.name]
+        left = [name for name, on in (("+albedo", self.albedo), (f"+x{self.renders}", self.renders > 1),
+                                      (f"+s{self.train_seed}", self.train_seed), ("+init", self.init),
+                                      (f"+wd{self.weight_decay:g}" if self.weight_decay is not None else "",
+                                       self.weight_decay is not None),
+                                      (f"+{self.light}", m is None and self.light != "fit"),
+                                      (f"+{self.arch}", m is None and self.arch != "resnet18"),
+                                      (f"+lux{self.hidden_lux:g}" if self.hidden_lux is not None else "",
+                                       self.hidden_lux is not None)) if on]
+        return flags, left
+
     def describe(self) -> str:
         what = f"{self.frames}-frame burst" if self.frames > 1 else "one frame"
         return ((f"{ARCHS[self.arch]}, " if self.arch != "resnet18" else "")

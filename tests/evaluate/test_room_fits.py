@@ -70,3 +70,19 @@ def test_first_seconds_keeps_the_first_finish(tmp_path):
     first = first_seconds(tmp_path / "s.json", t0)
     assert 5.0 <= first < 60.0
     assert first_seconds(tmp_path / "s.json", time.perf_counter()) == first  # a rerun reports the first time
+
+
+@pytest.mark.parametrize("spec, flags, left", [
+    ("16+e120", ["--burst", "16", "--epochs", "120"], []),
+    ("16+e120+adaptive+chandran", ["--burst", "16", "--epochs", "120", "--method", "chandran"], []),
+    ("1+p1396+ambient+dlnlos", ["--burst", "1", "--people", "1396", "--method", "dlnlos"], []),
+    ("16+e120+x2+s1", ["--burst", "16", "--epochs", "120"], ["+x2", "+s1"]),
+    ("16+ambient+lux0.01", ["--burst", "16"], ["+ambient", "+lux0.01"]),
+    ("16+rank2+chandran", ["--burst", "16"], ["+rank2", "+chandran"]),
+])
+def test_a_variant_is_nlos_fit_flags_where_nlos_fit_has_them(spec, flags, left):
+    from nlos_spotlight.cli import build_parser
+
+    got, rest = parse_variant(spec).fit_flags()
+    assert (got, rest) == (flags, left)
+    build_parser().parse_args(["fit", "room.ply", "--out", "o", *got])  # flags nlos fit takes
