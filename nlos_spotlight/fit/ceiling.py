@@ -86,7 +86,7 @@ def jacobian_reference(r, y, params, t: np.ndarray, dcfg) -> torch.Tensor:
     return torch.stack(cols, 1)
 
 
-def jacobian(r, y, params, t: np.ndarray, dcfg, light: torch.Tensor | None = None) -> torch.Tensor:
+def jacobian(r, y, params, t: np.ndarray, dcfg, light: torch.Tensor | None = None, person=None) -> torch.Tensor:
     """(H * W * 3, 7) :func:`jacobian_reference`'s derivatives with 5 renders fewer. The person's
     light in channel c is affine in albedo_c (one Lambertian bounce off the body: ``nlos`` is
     albedo_c times that channel's transport; ``nlos_ambient`` is (albedo_c - 1) times the hidden
@@ -94,10 +94,10 @@ def jacobian(r, y, params, t: np.ndarray, dcfg, light: torch.Tensor | None = Non
     channel of ``light`` (``params``' own, rendered here if not given) minus the same body's light at
     albedo 0, over albedo_c, times the clipped step's share (clip(a + h) - clip(a - h)) / 2h: the
     central difference exactly, with one render for all three channels. The floor steps move the
-    same sampled body."""
+    same sampled body (``person``: ``params``' body already sampled, as ``light`` was rendered)."""
     from ..evaluate.crb import PERSON
 
-    person = _person(params, dcfg)
+    person = _person(params, dcfg) if person is None else person
     light = person_light(r, y, params, t, dcfg, person) if light is None else light
     albedo = np.broadcast_to(np.asarray(params.albedo, np.float64), (3,))
     black = None  # the body's light at albedo 0 (the hidden light it blocks), rendered once if needed
@@ -174,8 +174,9 @@ def room_ceiling(out: Path, cfg: FitConfig, spot: dict, progress: bool = True) -
             spec = specs[i]
             base, t = spec["params"], np.array([*spec["position"], room.hidden_region.floor_z])
             per = {q: dataclasses.replace(base, posture=q) for q in POSTURES}
-            mu = {q: person_light(r, y, per[q], t, dcfg) for q in POSTURES}
-            jac = {q: jacobian(r, y, per[q], t, dcfg, mu[q]) for q in POSTURES}
+            body = {q: _person(per[q], dcfg) for q in POSTURES}  # sampled once: the light and its derivatives
+            mu = {q: person_light(r, y, per[q], t, dcfg, body[q]) for q in POSTURES}
+            jac = {q: jacobian(r, y, per[q], t, dcfg, mu[q], body[q]) for q in POSTURES}
             sigma = noise_variance_dn(((static.reshape(-1) + mu[base.posture]) * k).clamp(min=0), sensor).sqrt() / k
             means = torch.stack([mu[q] / sigma for q in POSTURES])
             jacs = torch.stack([jac[q] / sigma[:, None] for q in POSTURES])
