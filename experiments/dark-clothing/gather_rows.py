@@ -14,6 +14,8 @@ import argparse
 import csv
 from pathlib import Path
 
+from nlos_spotlight.data.store import atomic_csv
+
 COLUMNS = ["room", "reading", "condition", "magnitude", "posture_accuracy", "posture3_accuracy", "error_cm", "people"]
 
 
@@ -39,12 +41,7 @@ def main() -> None:
     if args.out.exists():
         with args.out.open(newline="") as f:
             old = [r for r in csv.DictReader(f) if (r["room"], r["reading"]) not in replaced]
-    tmp = args.out.with_suffix(".tmp")
-    with tmp.open("w", newline="") as f:
-        w = csv.DictWriter(f, COLUMNS, extrasaction="ignore")
-        w.writeheader()
-        w.writerows(old + new)
-    tmp.replace(args.out)
+    atomic_csv(args.out, COLUMNS, [{k: r.get(k, "") for k in COLUMNS} for r in old + new])
     print(f"{args.out}: {len(new)} rows of {len(replaced)} (room, reading) pairs replaced or added, {len(old)} kept")
 
 

@@ -40,9 +40,10 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from nlos_spotlight.data.store import atomic_csv
 from nlos_spotlight.errors import NlosError
 from nlos_spotlight.evaluate.room_fits import (first_seconds, read_fit_rows, room_interval, room_range,
-                                              static_people, training_split, write_rows)
+                                               static_people, training_split)
 
 COLUMNS = ["room", "role", "kind", "spot", "people", "posture_accuracy", "posture3_accuracy", "error_cm",
            "mean_answer_cm", "train_s"]
@@ -178,7 +179,7 @@ def main() -> None:
             for k, i in enumerate(ids):
                 room = loaded[k] if loaded else load_room(args, i, fits, renders=1)  # scored people: first render
                 rows += score(args, tr, room, role, people, train_s, mean)
-                write_rows(args.out / "transfer.csv", COLUMNS, rows)
+                atomic_csv(args.out / "transfer.csv", COLUMNS, rows)
     except NlosError as exc:
         raise SystemExit(str(exc)) from None
     summary(args)

@@ -28,8 +28,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from nlos_spotlight.data.store import atomic_csv
 from nlos_spotlight.errors import NlosError
-from nlos_spotlight.evaluate.room_fits import parse_variant, run_dir, training_split, write_rows
+from nlos_spotlight.evaluate.room_fits import parse_variant, run_dir, training_split
 
 COLUMNS = ["room", "variant", "split", "people", "posture_accuracy", "posture3_accuracy", "error_cm"]
 
@@ -82,7 +83,7 @@ def main() -> None:
                 rows += score_room(room, v, args.train_people, args.seed)
     if not rows:
         raise SystemExit(f"{args.fits}: no fitted run of variants {args.variants}")
-    write_rows(args.out, COLUMNS, rows)
+    atomic_csv(args.out, COLUMNS, rows)
     for v in args.variants:
         for split in ("train", "heldout"):
             r = [x for x in rows if x["variant"] == v and x["split"] == split]

@@ -28,8 +28,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from nlos_spotlight.data.store import atomic_csv
 from nlos_spotlight.errors import NlosError
-from nlos_spotlight.evaluate.room_fits import read_fit_rows, run_dir, static_people, training_split, write_rows
+from nlos_spotlight.evaluate.room_fits import read_fit_rows, run_dir, static_people, training_split
 
 COLUMNS = ["room", "variant", "weights", "step", "split", "people", "posture_accuracy", "posture3_accuracy",
            "error_cm"]
@@ -102,7 +103,7 @@ def main() -> None:
                 rows += score_run(args.fits, args.test, room, v, fitted, args.seed)
     if not rows:
         raise SystemExit(f"{args.fits}: no scored run of variants {args.variants}")
-    write_rows(args.out, COLUMNS, rows)
+    atomic_csv(args.out, COLUMNS, rows)
     report(rows, args.variants)
 
 

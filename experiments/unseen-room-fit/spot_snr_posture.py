@@ -30,8 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
+from nlos_spotlight.data.store import atomic_csv
 from nlos_spotlight.errors import NlosError
-from nlos_spotlight.evaluate.room_fits import parse_variant, read_fit_rows, write_rows
+from nlos_spotlight.evaluate.room_fits import parse_variant, read_fit_rows
 
 COLUMNS = ["room", "base", "other", "base_face", "other_face", "base_snr", "other_snr", "oracle_snr",
            "other_rank", "seeds", "six_way_test_diff", "six_way_sim_diff", "error_sim_diff_cm"]
@@ -182,7 +183,7 @@ def main() -> None:
     print("\n".join(report(pts)))
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
-        write_rows(args.out, COLUMNS, pts)
+        atomic_csv(args.out, COLUMNS, pts)
 
 
 if __name__ == "__main__":

@@ -63,11 +63,10 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from nlos_spotlight.errors import NlosError
-from nlos_spotlight.evaluate.room_fits import read_fit_rows, room_interval, room_range, run_dir, static_people, write_rows
-
 from nlos_spotlight.data.static import read_static
-from nlos_spotlight.data.store import atomic_npz
+from nlos_spotlight.data.store import atomic_csv, atomic_npz
+from nlos_spotlight.errors import NlosError
+from nlos_spotlight.evaluate.room_fits import read_fit_rows, room_interval, room_range, run_dir, static_people
 from nlos_spotlight.evaluate.synthesis import (Bank, Synthesizer, albedo_fit, floor_cells, mean_body,
                                                read_photograph)
 from nlos_spotlight.render.sensor import SensorConfig
@@ -503,7 +502,7 @@ def main() -> None:
         if set(args.know) <= done:
             continue
         rows += synthesize_room(_with_know(args, [k for k in args.know if k not in done]), i)
-        write_rows(path, COLUMNS, rows)
+        atomic_csv(path, COLUMNS, rows)
     summary(args)
 
 

@@ -64,10 +64,11 @@ import numpy as np
 import torch
 
 from nlos_spotlight.data.static import read_static
+from nlos_spotlight.data.store import atomic_csv
 from nlos_spotlight.errors import NlosError
 from nlos_spotlight.evaluate.room_fits import (ARCHS, LIGHTS, VARIANT_HELP, first_seconds, fitted_spot, light_policy,
-                                              parse_variant, read_fit_rows, room_interval, run_dir, static_people,
-                                              training_split, write_rows)
+                                               parse_variant, read_fit_rows, room_interval, run_dir, static_people,
+                                               training_split)
 
 COLUMNS = ["room", "variant", "spot", "people", "posture_accuracy", "posture3_accuracy", "error_cm", "mean_answer_cm",
            "test_people", "render_s", "train_s"]
@@ -306,7 +307,7 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / f"room-fit-{args.first}-{args.first + len(rooms)}.csv"
 
-    write = lambda rows: write_rows(path, COLUMNS, rows)
+    write = lambda rows: atomic_csv(path, COLUMNS, rows)
     rows = []  # an earlier run's rows of other variants in the same CSV are kept
     if path.exists():
         rows = [r for r in read_fit_rows(path) if r["variant"] not in args.variants]

@@ -46,6 +46,20 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
     os.replace(tmp, path)
 
 
+def atomic_csv(path: Path, columns: list[str], rows: list[dict]) -> None:
+    """A CSV of dict rows written atomically, its folder made (a killed job leaves the previous
+    file whole)."""
+    import csv
+    import io
+
+    text = io.StringIO()
+    w = csv.DictWriter(text, columns)
+    w.writeheader()
+    w.writerows(rows)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_bytes(path, text.getvalue().encode())
+
+
 def atomic_json(path: Path, obj) -> None:
     atomic_write_bytes(path, (json.dumps(obj, indent=1, sort_keys=True) + "\n").encode())
 

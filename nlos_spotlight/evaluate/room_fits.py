@@ -195,17 +195,6 @@ def static_people(room: Path):
     return t.subset(torch.nonzero(t.trajectory[:, 0] < 0).flatten())
 
 
-def write_rows(path: Path, columns: list[str], rows: list[dict]) -> None:
-    """A CSV written atomically (a killed job leaves the previous file whole)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    with tmp.open("w", newline="") as f:
-        w = csv.DictWriter(f, columns)
-        w.writeheader()
-        w.writerows(rows)
-    tmp.replace(path)
-
-
 def read_fit_rows(path: Path) -> list[dict]:
     """A room-fit CSV's rows (fits written before variants: variant '1', one frame, no augmentation)."""
     with path.open(newline="") as f:

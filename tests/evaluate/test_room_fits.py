@@ -7,8 +7,9 @@ import pytest
 from scipy import stats
 
 from nlos_spotlight.errors import NlosError
-from nlos_spotlight.evaluate.room_fits import (first_seconds, parse_variant, read_fit_rows, room_interval, room_range,
-                                              run_dir, write_rows)
+from nlos_spotlight.data.store import atomic_csv
+from nlos_spotlight.evaluate.room_fits import (first_seconds, parse_variant, read_fit_rows, room_interval,
+                                               room_range, run_dir)
 
 
 def test_variant_fields_from_the_documented_examples():
@@ -56,7 +57,7 @@ def test_room_ranges():
 def test_rows_round_trip_and_the_first_fits_read_as_variant_1(tmp_path):
     path = tmp_path / "sub" / "fit.csv"
     rows = [{"room": "test-00000", "variant": "16+e120", "error_cm": "15.5"}]
-    write_rows(path, ["room", "variant", "error_cm"], rows)
+    atomic_csv(path, ["room", "variant", "error_cm"], rows)
     assert read_fit_rows(path) == rows and not list(path.parent.glob("*.tmp"))
     old = tmp_path / "old.csv"  # written before variants: no column
     with old.open("w", newline="") as f:
