@@ -12,33 +12,28 @@ relay draws (other relay offsets) over sqrt(2), the error one draw carries.
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--model", type=Path, required=True, help="a finished room model (nlos fit --out)")
-    ap.add_argument("--people", type=int, default=8, help="its first held-out people")
+    from nlos_spotlight.args import room_model_parser
+
+    ap = room_model_parser(__doc__.split("\n\n")[0], people=8)
     ap.add_argument("--samples", default="1024,512,256", help="body samples to compare (comma-separated)")
-    ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
     import torch
 
     from nlos_spotlight.errors import NlosError
-    from nlos_spotlight.fit.run import finished_model
-    from nlos_spotlight.fit.train import heldout_indices
+    from nlos_spotlight.fit.run import heldout_model
 
     torch.set_num_threads(1)  # as a shadow worker renders
     try:
-        cfg, aim, builder, dcfg = finished_model(args.model)
+        cfg, aim, builder, dcfg, idx = heldout_model(args.model, args.people)
     except NlosError as exc:
         sys.exit(f"--model: {exc}")
-    idx = heldout_indices(args.model, cfg)[:args.people]
     counts = [int(n) for n in args.samples.split(",")]
     comps = ("nlos_shadow", "nlos_bounce")
 

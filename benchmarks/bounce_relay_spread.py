@@ -9,30 +9,24 @@ their sums and the brightest pixel over the median one; and the floor's share of
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--model", type=Path, required=True, help="a finished room model (nlos fit --out)")
-    ap.add_argument("--people", type=int, default=12, help="its first held-out people")
-    ap.add_argument("--out", type=Path, default=None)
-    args = ap.parse_args()
+    from nlos_spotlight.args import room_model_parser
+
+    args = room_model_parser(__doc__.split("\n\n")[0], people=12).parse_args()
     import nlos_spotlight.render.bounce as bounce
     from nlos_spotlight.errors import NlosError
-    from nlos_spotlight.fit.run import finished_model
-    from nlos_spotlight.fit.train import heldout_indices
+    from nlos_spotlight.fit.run import heldout_model
 
     try:
-        cfg, aim, builder, dcfg = finished_model(args.model)
+        cfg, aim, builder, dcfg, idx = heldout_model(args.model, args.people)
     except NlosError as exc:
         sys.exit(f"--model: {exc}")
-    idx = heldout_indices(args.model, cfg)[:args.people]
     floor = bounce.NEAR_FIELD
     lines = [f"# python benchmarks/bounce_relay_spread.py --model {args.model} --people {len(idx)}",
              "near_field (relay spacings), relative L2 between two relay offsets per person (median, max), "

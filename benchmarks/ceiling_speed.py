@@ -10,31 +10,26 @@ seconds a person of each, their ratio, and the largest relative difference of th
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import time
-from pathlib import Path
 
 import numpy as np
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--model", type=Path, required=True, help="a finished room model (nlos fit --out)")
-    ap.add_argument("--people", type=int, default=2, help="its first held-out people")
-    ap.add_argument("--out", type=Path, default=None)
-    args = ap.parse_args()
+    from nlos_spotlight.args import room_model_parser
+
+    args = room_model_parser(__doc__.split("\n\n")[0], people=2).parse_args()
     import torch
 
     from nlos_spotlight.errors import NlosError
     from nlos_spotlight.fit.ceiling import jacobian, jacobian_reference, light_renderer, person_light
-    from nlos_spotlight.fit.run import finished_model
-    from nlos_spotlight.fit.train import heldout_indices
+    from nlos_spotlight.fit.run import heldout_model
     from nlos_spotlight.render.settings import resolve_device
     from nlos_spotlight.world.body import POSTURES
 
     try:
-        cfg, aim, builder, dcfg = finished_model(args.model)
+        cfg, aim, builder, dcfg, people = heldout_model(args.model, args.people)
     except NlosError as exc:
         raise SystemExit(f"error: {exc}") from None
     room, specs = builder._scan_people()
@@ -42,7 +37,6 @@ def main() -> None:
     r, y = light_renderer(room, settings, cfg.light, {"aim": aim})
     seconds = {"jacobian": 0.0, "reference": 0.0}
     worst = 0.0
-    people = heldout_indices(args.model, cfg)[:args.people]
     for i in people:
         base, t = specs[i]["params"], np.array([*specs[i]["position"], room.hidden_region.floor_z])
         for q in POSTURES:

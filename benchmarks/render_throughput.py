@@ -22,6 +22,12 @@ reference. On a machine with a CUDA GPU one more row renders in one process
 on the GPU (``device='cuda'``, Dr.Jit's OptiX rays when Mitsuba is installed) against that
 machine's one-core reference.
 
+Each run also counts today's path's shadow rays (``render.rays.TALLY``): rays a person, the share
+of its time spent in the ray engine and that engine's rays per second, and so the most an exact
+renderer casting the same rays could reach on a core if everything else were free (printed, and
+``ray_budget`` in the .json): the bound that says whether a speed goal needs fewer rays or only
+faster code around them.
+
 Writes ``--out`` (default ``docs/results/render-throughput.csv``: ``device,threads,people_per_s,
 reference_people_per_s,ratio``) and, beside it, the same with the machine and settings (``.json``).
 
@@ -116,6 +122,7 @@ def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, legacy: 
     import torch
 
     from nlos_spotlight.data.flash import FLASH_SPOT_SAMPLES, flash_scene
+    from nlos_spotlight.render.rays import TALLY
     from nlos_spotlight.render.surface import StaticSurfaces
     from nlos_spotlight.render.transport import Renderer
     from nlos_spotlight.scene.io import load_scene
@@ -144,10 +151,11 @@ def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, legacy: 
             t = time.perf_counter()
             r.render(y, people[0][0], torch.as_tensor(people[0][1]), comps, relay_offset=0.25)  # a new relay set
             first = time.perf_counter() - t
+            TALLY.reset()
             t = time.perf_counter()
             for person, tr in people:
                 r.render(y, person, torch.as_tensor(tr), comps, relay_offset=0.25)
-        queue.put((time.perf_counter() - t, len(people), first))
+        queue.put({"seconds": time.perf_counter() - t, "people": len(people), "first": first, **_tally()})
         return
     r = Renderer(scene, settings, aim_points=los.centroids())
     flash = Renderer(flash_scene(scene), dataclasses.replace(settings, spot_samples=settings.spot_samples
@@ -155,18 +163,27 @@ def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, legacy: 
     with torch.no_grad():
         r.transport_images(people[0][0], people[0][1], spots, also=(flash,), nlos_ambient=True)  # warm-up
         barrier.wait()
+        TALLY.reset()
         t = time.perf_counter()
         for person, tr in people:
             r.transport_images(person, tr, spots, also=(flash,), nlos_ambient=True)
         if device == "cuda":
             torch.cuda.synchronize()
-    queue.put((time.perf_counter() - t, len(people)))
+    queue.put({"seconds": time.perf_counter() - t, "people": len(people), **_tally()})
+
+
+def _tally() -> dict:
+    """This process's shadow rays since the tally was reset: how many, and the seconds in the engine."""
+    from nlos_spotlight.render.rays import TALLY
+
+    return {"rays": TALLY.rays, "ray_seconds": TALLY.seconds}
 
 
 def throughput(room_dir: Path, dcfg, people, spots, processes: int, path: tuple, device: str = "cpu",
-               shadow: bool = False, firsts: list | None = None) -> float:
+               shadow: bool = False, firsts: list | None = None, budgets: list | None = None) -> float:
     """People per second of ``processes`` concurrent renderers, each rendering all of ``people``;
-    ``path``: as :data:`PATHS`; ``firsts``: gets each process's first-person seconds (``shadow``)."""
+    ``path``: as :data:`PATHS`; ``firsts``: gets each process's first-person seconds (``shadow``);
+    ``budgets``: gets each process's (seconds a person, rays a person, seconds in rays a person)."""
     layer, rays, legacy = path
     ctx = mp.get_context("spawn")
     barrier, queue = ctx.Barrier(processes), ctx.Queue()
@@ -189,8 +206,22 @@ def throughput(room_dir: Path, dcfg, people, spots, processes: int, path: tuple,
     if any(p.exitcode != 0 for p in procs):
         raise SystemExit("a rendering process failed")
     if firsts is not None:
-        firsts.extend(r[2] for r in res if len(r) > 2)
-    return sum(r[1] for r in res) / max(r[0] for r in res)
+        firsts.extend(r["first"] for r in res if "first" in r)
+    if budgets is not None:
+        budgets.extend((r["seconds"] / r["people"], r["rays"] / r["people"], r["ray_seconds"] / r["people"]) for r in res)
+    return sum(r["people"] for r in res) / max(r["seconds"] for r in res)
+
+
+def ray_budget(budgets: list, reference_per_core: float) -> dict:
+    """The share of a person's time that is shadow-ray tests (``render.rays.TALLY``), medians over the
+    processes and runs of ``budgets`` ((seconds, rays, ray seconds) a person each): with the rest of
+    the work free, an exact renderer casting the same rays at this engine's speed renders at most
+    1 / (ray seconds) people per second a core; ``bound_over_reference``: that over the reference's
+    people/s a core (``reference_per_core``), the most any such renderer gains."""
+    sec, rays, ray_s = (float(np.median([b[i] for b in budgets])) for i in range(3))
+    return {"seconds_per_person": sec, "rays_per_person": rays, "ray_seconds_per_person": ray_s,
+            "ray_share": ray_s / sec, "mrays_per_s": rays / ray_s / 1e6, "people_per_s_rays_only": 1 / ray_s,
+            "bound_over_reference": 1 / ray_s / reference_per_core}
 
 
 def main() -> None:
@@ -227,14 +258,20 @@ def main() -> None:
         for n in cores:
             runs = {k: [] for k in paths}
             firsts = {k: [] for k in paths}
+            budgets = {k: [] for k in paths}
             for _ in range(args.repeats):  # interleaved: a slow spell of the machine hits every path
                 for k, path in paths.items():
                     runs[k].append(throughput(work / "room", dcfg, ppl, spots, n, path, shadow=args.shadow,
-                                              firsts=firsts[k]))
+                                              firsts=firsts[k], budgets=budgets[k]))
             got = {k: float(np.median(v)) for k, v in runs.items()}
+            budget = ray_budget(budgets["new"], got["reference"] / n)
+            print(f"  rays, today's path: {budget['rays_per_person']:,.0f} a person, {budget['ray_share']:.0%} of its "
+                  f"time ({budget['mrays_per_s']:.2f} Mrays/s a core); were all else free, at most "
+                  f"{budget['people_per_s_rays_only']:.2f} people/s a core, {budget['bound_over_reference']:.2f}x the "
+                  f"reference's", flush=True)
             rows.append({"device": "cpu", "threads": n, "people_per_s": got["new"],
                          "reference_people_per_s": got["reference"], "ratio": got["new"] / got["reference"]})
-            extra.append({"threads": n, **got, "runs": runs,
+            extra.append({"threads": n, **got, "runs": runs, "ray_budget": budget,
                           **({"relay_set_first_person_s": {k: float(np.median(v)) for k, v in firsts.items()}}
                              if args.shadow else {})})
             also = "" if args.shadow else f" (the new loops with the old rays: {got['new-embree']:.2f})"

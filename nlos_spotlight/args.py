@@ -23,8 +23,21 @@ def parse_numbers(text: str, fields: str, flag: str) -> np.ndarray:
     return np.array(vals)
 
 
+def room_model_parser(description: str, people: int):
+    """An ``argparse`` parser of the studies that read a finished room model's held-out people:
+    ``--model`` (the ``nlos fit --out`` folder), ``--people`` (default ``people``), ``--out`` (a file)."""
+    import argparse
+    from pathlib import Path
+
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument("--model", type=Path, required=True, help="a finished room model (nlos fit --out)")
+    ap.add_argument("--people", type=int, default=people, help="its first held-out people")
+    ap.add_argument("--out", type=Path, default=None, help="where to write the result")
+    return ap
+
+
 MAX_COORDINATE_M = 1e6
 """Largest coordinate a flag may give, m (a room is tens of meters)."""
 
 
-__all__ = ["parse_numbers"]
+__all__ = ["parse_numbers", "room_model_parser"]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import json
 import platform
 from pathlib import Path
@@ -10,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ..data.store import atomic_csv
 from ..world.body import POSTURES
 from . import figures
 from .experiment import PAPER, Evaluation
@@ -19,12 +19,8 @@ from .report import Block, write_report
 
 
 def _atomic_csv(path: Path, header: list[str], rows: list[list]) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    with tmp.open("w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(header)
-        w.writerows(rows)
-    tmp.replace(path)
+    """List rows under ``header`` through the package's one atomic CSV writer."""
+    atomic_csv(path, header, [dict(zip(header, r)) for r in rows])
 
 
 def write_raw(ev: Evaluation, out: Path) -> None:

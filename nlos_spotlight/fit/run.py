@@ -86,6 +86,15 @@ def finished_model(out: Path):
     return cfg, np.asarray(report["spot"]["aim"], np.float64), builder, dcfg
 
 
+def heldout_model(out: Path, people: int):
+    """:func:`finished_model`'s four and the indices (at most ``people``) of the room model's first
+    held-out people: what the studies that render a fit's held-out people again start from."""
+    from .train import heldout_indices
+
+    cfg, aim, builder, dcfg = finished_model(out)
+    return cfg, aim, builder, dcfg, heldout_indices(Path(out), cfg)[:people]
+
+
 def die_with_parent() -> None:
     """This process ends when the fit that started it does (Linux: the parent-death signal; elsewhere
     the callers notice a dead parent themselves)."""

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import sys
+import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -192,6 +193,29 @@ def occlusion_engine(static: RayEngine, backend: str = "auto", device: str = "cp
     return rays_drjit.DrJitRays(static.vertices, static.faces, device, threads)
 
 
+@dataclass
+class RayTally:
+    """What a process's :class:`SceneRays` queries have cost since :meth:`reset`: the renderer's
+    per-person shadow rays (``benchmarks/render_throughput.py --budget`` reads it)."""
+
+    rays: int = 0
+    """Shadow rays tested."""
+    seconds: float = 0.0
+    """Wall seconds inside the ray engine."""
+    calls: int = 0
+    """Queries (each a batch of rays)."""
+
+    def reset(self) -> None:
+        self.rays, self.seconds, self.calls = 0, 0.0, 0
+
+    def add(self, rays: int, seconds: float) -> None:
+        self.rays, self.seconds, self.calls = self.rays + rays, self.seconds + seconds, self.calls + 1
+
+
+TALLY = RayTally()
+"""This process's :class:`RayTally`."""
+
+
 class SceneRays:
     """Static geometry plus, optionally, a person: visibility through both.
 
@@ -220,7 +244,11 @@ class SceneRays:
 
     def occluded_rays(self, origins: np.ndarray, dirs: np.ndarray, lengths: np.ndarray) -> np.ndarray:
         """(N,) bool for prepared float32 rays (see :func:`pair_rays`)."""
-        return (self.static if self.person is None else self.joined).occluded_rays(origins, dirs, lengths)
+        engine = self.static if self.person is None else self.joined
+        t = time.perf_counter()
+        out = engine.occluded_rays(origins, dirs, lengths)
+        TALLY.add(len(origins), time.perf_counter() - t)
+        return out
 
     def occluded(self, a, b, normal_a=None, normal_b=None) -> np.ndarray:
         return (self.static if self.person is None else self.joined).occluded(a, b, normal_a, normal_b)

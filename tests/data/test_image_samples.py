@@ -1,6 +1,7 @@
 """Image samples (docs/dataset-format.md): the person's light under a room's stored spots only.
 
-One room of the ``tiny`` preset's renderer settings, 5 people: the first 2 with full transport,
+One room of the ``tiny`` preset's renderer settings (500 body samples and a 40-vertex candidate mesh:
+these tests compare renders of the same people, not the render with the physics), 5 people: the first 2 with full transport,
 3 image samples; and the same room with every person at full transport (stored in full, rank 0),
 whose samples are the same people, to compare against.
 """
@@ -28,7 +29,7 @@ from nlos_spotlight.train.imaging import form_images
 from nlos_spotlight.data.tensors import load_scene_tensors, transport_samples
 
 M, N = 2, 5
-FIELDS = dict(train_scenes=1, val_scenes=0, test_scenes=0, samples_per_scene=N, transport_rank=0, seed=5,
+FIELDS = dict(train_scenes=1, val_scenes=0, test_scenes=0, samples_per_scene=N, transport_rank=0, seed=5, person_samples=500, los_vertices=40,
               stored_spots_top=2)
 
 

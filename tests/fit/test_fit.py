@@ -972,7 +972,7 @@ def test_finished_model_reads_the_fit_or_says_why_not(fitted, tmp_path):
     """``finished_model``: a finished room model's config, the report's aim and its people's builder
     (a person rendered again by it is the dataset's); a folder that is not one is one line."""
     from nlos_spotlight.errors import NlosError
-    from nlos_spotlight.fit.run import finished_model
+    from nlos_spotlight.fit.run import finished_model, heldout_model
 
     out, report = fitted
     cfg, aim, builder, dcfg = finished_model(out)
@@ -980,3 +980,7 @@ def test_finished_model_reads_the_fit_or_says_why_not(fitted, tmp_path):
     assert builder.cfg.room == str((out / "room").resolve())
     with pytest.raises(NlosError, match="not a finished room model"):
         finished_model(tmp_path)
+    # the studies' start: the same model and its first held-out people, the ones the report scored
+    *_, idx = heldout_model(out, 4)
+    assert len(idx) == 4 and min(idx) >= cfg.transport_people and len(set(idx)) == 4
+    assert heldout_model(out, 100)[-1][:4] == idx and len(heldout_model(out, 100)[-1]) == TINY.heldout

@@ -100,3 +100,21 @@ def test_torch_kernels_with_drjit_rays_equal_embree(glossy_corner_pair):
         want = torch_r.transport_images(person, [0.05, -0.03], nlos_ambient=True)
         got = gpu_like.transport_images(person, [0.05, -0.03], nlos_ambient=True)
     assert float((got - want).norm() / want.norm()) < 1e-4
+
+
+def test_ray_tally_counts_every_query():
+    """``rays.TALLY`` counts each ray a ``SceneRays`` query tests (the render benchmark's ray budget),
+    whichever engine answers it."""
+    from nlos_spotlight.render.rays import TALLY
+
+    v1, f1 = _box([-1, -1, -1], [1, 1, 1])
+    rng = np.random.default_rng(5)
+    o = rng.uniform(-3, 3, (1000, 3)).astype(np.float32)
+    d = rng.normal(size=(1000, 3))
+    d = (d / np.linalg.norm(d, axis=1, keepdims=True)).astype(np.float32)
+    length = np.full(1000, 2.0, np.float32)
+    TALLY.reset()
+    for engine in (RayEngine(v1, f1), occlusion_engine(RayEngine(v1, f1), "drjit", "cpu")):
+        SceneRays(engine).occluded_rays(o, d, length)
+        SceneRays(engine).occluded_rays(o[:10], d[:10], length[:10])
+    assert (TALLY.rays, TALLY.calls) == (2020, 4) and TALLY.seconds > 0
