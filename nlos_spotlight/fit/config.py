@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass
 
 from ..errors import NlosError
@@ -114,8 +115,9 @@ class FitConfig:
     fit); 3.4 min on 2 cores beside 21.5 min of rendering)."""
     min_steps: int = 800
     """At least this many optimizer steps of 64 images."""
-    workers: int = 2
-    """Processes rendering people (one torch thread each)."""
+    workers: int = 0
+    """Processes rendering people (one torch thread each); 0: one a core this process may use, as
+    many as the memory holds (:func:`auto_workers`)."""
     render_device: str = "cpu"
     """Where people are rendered: 'cpu', 'cuda' or 'auto' (``render.settings.resolve_device``; an
     execution choice like ``workers``: a resumed fit may change it)."""
@@ -139,7 +141,7 @@ class FitConfig:
 
     def __post_init__(self) -> None:
         checks = {"people": 1, "heldout": 1, "ceiling_people": 0, "transport_people": 1, "burst_frames": 1, "resolution": 8,
-                  "los_vertices": 8, "person_samples": 1, "body_faces": 100, "min_steps": 0, "workers": 1}
+                  "los_vertices": 8, "person_samples": 1, "body_faces": 100, "min_steps": 0, "workers": 0}
         for k, lo in checks.items():
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, int) or v < lo:
@@ -171,7 +173,8 @@ class FitConfig:
         if self.render_device not in DEVICES:
             raise NlosError(f"--device: expected one of {', '.join(DEVICES)}, got {self.render_device!r}")
         if self.workers > MAX_WORKERS:
-            raise NlosError(f"--workers: at most {MAX_WORKERS} processes (each holds a room's renderer), got {self.workers}")
+            raise NlosError(f"--workers: at most {MAX_WORKERS} processes (each holds a room's renderer; 0: one a "
+                            f"core), got {self.workers}")
         if self.people > 100_000 or self.resolution > 256 or self.burst_frames > 1000:
             raise NlosError(f"fit: absurd size (people {self.people}, resolution {self.resolution}, "
                             f"burst {self.burst_frames})")
@@ -262,6 +265,42 @@ without a spot term (``FitConfig._check_light`` refuses any other value)."""
 
 MAX_WORKERS = 256
 """Most rendering processes a fit starts (each holds about 1 GB: the room's renderer)."""
+WORKER_BYTES = 1.5e9
+"""Memory :func:`auto_workers` sets aside a rendering process: the room's renderer (about 1 GB)
+and its people in flight."""
+
+
+def auto_workers(workers: int, device: str = "cpu", cores: int | None = None,
+                 available_bytes: float | None = None) -> int:
+    """The rendering processes of ``FitConfig.workers``: itself when given; for 0, one a core this
+    process may use (its CPU affinity), no more than the available memory holds at
+    :data:`WORKER_BYTES` each, at least one; on a GPU one process (each would hold its own CUDA
+    context; give a count to try more).
+    ``cores`` and ``available_bytes`` replace what this machine says (tests)."""
+    if workers > 0:
+        return workers
+    from ..render.settings import resolve_device
+
+    if resolve_device(device) != "cpu":
+        return 1
+    if cores is None:
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    if available_bytes is None:
+        available_bytes = _available_memory()
+    by_memory = int(available_bytes // WORKER_BYTES) if available_bytes is not None else cores
+    return max(1, min(cores, by_memory, MAX_WORKERS))
+
+
+def _available_memory() -> float | None:
+    """Bytes the system can give new processes (Linux's MemAvailable), or None where unknown."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
 
 
 BEFORE = {"method": "ours", "capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "footprint_jitter": False, "shadow_samples": 0,

@@ -32,7 +32,7 @@ import time
 from pathlib import Path
 
 from ..errors import NlosError
-from .config import FitConfig, recorded
+from .config import FitConfig, auto_workers, recorded
 
 FORMAT = "nlos-room-model/1"
 RESUMABLE_CHANGES = ("workers", "render_device")
@@ -336,7 +336,8 @@ def _fit_steps(room: str, out: Path, cfg: FitConfig, flags: dict, record: dict, 
         clock.lap("room_s")
         console.rule("2/5 people")
         extra = _ien_spot(cfg, out / "room") if cfg.policy == "ien" else []
-        render_people(dataset_config(cfg, out / "room", extra), out / "data", cfg.workers, progress, cfg.render_device)
+        render_people(dataset_config(cfg, out / "room", extra), out / "data", auto_workers(cfg.workers, cfg.render_device),
+                      progress, cfg.render_device)
         clock.lap("generate_s")
     except BaseException as exc:  # refused input, a hostile file, Ctrl-C
         if fresh and not _has_people(out):  # no work worth keeping: the corrected rerun starts clean

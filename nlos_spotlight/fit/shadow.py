@@ -27,7 +27,7 @@ import numpy as np
 
 from ..data.config import SET_BLOCK as BLOCK, SETS_PER_BLOCK as RELAY_SETS
 from ..errors import NlosError
-from .config import BEFORE, FitConfig
+from .config import BEFORE, FitConfig, auto_workers
 
 # BLOCK: people per shadow file (a worker's unit of work: one renderer precompute per block).
 # RELAY_SETS: sets of relay points a block draws (``shadow_relay='per-person'``): each set's static
@@ -210,11 +210,12 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
         if not todo:
             return
         args = (str(out), cfg.to_dict(), meta["aim"])
-        if cfg.workers == 1:  # in this process
+        workers = auto_workers(cfg.workers, cfg.render_device)
+        if workers == 1:  # in this process
             for b, idx, keep in todo:
                 bar.advance(task, _render_block(*args, b, idx, keep))
             return
-        with ProcessPoolExecutor(max_workers=cfg.workers, mp_context=mp.get_context("spawn"),
+        with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
                                  initializer=_one_thread) as pool:
             jobs = [pool.submit(_render_block, *args, b, idx, keep) for b, idx, keep in todo]
             for job in as_completed(jobs):

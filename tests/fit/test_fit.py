@@ -4,6 +4,7 @@ on the room model, resuming, parallel rendering, and the error paths."""
 from __future__ import annotations
 
 import dataclasses
+import os
 import json
 import shutil
 
@@ -315,6 +316,23 @@ def test_error_paths(room_dir, fitted, tmp_path, capsys):
     (tmp_path / "file").write_text("x")
     _fails(capsys, ["fit", str(room_dir), "--out", str(tmp_path / "file")] + q, "file")
     assert not (tmp_path / "b").exists() and not (tmp_path / "c").exists()  # refused input leaves nothing
+
+
+def test_auto_workers_follows_the_cores_and_the_memory():
+    """``--workers 0`` (the default): one process a core, no more than the memory holds at
+    ``WORKER_BYTES`` each, at least one; a given count stands; one process on a GPU."""
+    from nlos_spotlight.fit.config import WORKER_BYTES, auto_workers
+
+    assert FitConfig().workers == 0
+    assert auto_workers(0, cores=16, available_bytes=100e9) == 16
+    assert auto_workers(0, cores=16, available_bytes=4.5 * WORKER_BYTES) == 4  # memory binds
+    assert auto_workers(0, cores=2, available_bytes=0.5 * WORKER_BYTES) == 1  # never none
+    assert auto_workers(0, cores=2, available_bytes=None) == 2  # memory unknown: the cores
+    assert auto_workers(3, cores=16, available_bytes=100e9) == 3
+    assert 1 <= auto_workers(0) <= os.cpu_count()  # this machine
+    for bad in (-1, 257, 1.5, True):
+        with pytest.raises(Exception, match="workers"):
+            FitConfig(workers=bad)
 
 
 def test_config_checks():
