@@ -26,7 +26,9 @@ Each run also counts today's path's shadow rays (``render.rays.TALLY``): rays a 
 of its time spent in the ray engine and that engine's rays per second, and so the most an exact
 renderer casting the same rays could reach on a core if everything else were free (printed, and
 ``ray_budget`` in the .json): the bound that says whether a speed goal needs fewer rays or only
-faster code around them.
+faster code around them. One person's rays are then tested again against the room alone and the
+body alone (``ray_split``): what each blocks, what each costs, and the bound were the room's static
+visibility cached for free (the body's own tests left).
 
 Writes ``--out`` (default ``docs/results/render-throughput.csv``: ``device,threads,people_per_s,
 reference_people_per_s,ratio``) and, beside it, the same with the machine and settings (``.json``).
@@ -113,63 +115,117 @@ def people(sb, n: int) -> list:
     return [sb._person(spec, floor_z)[1:] for spec in specs[first:first + n]]
 
 
-def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, legacy: str, shadow: bool, barrier,
-            queue) -> None:
-    """Build the renderer, wait for the others, render every person (their image samples, or with
-    ``shadow`` what the fit's shadow step renders of them under the first spot, one relay set: put
-    also the seconds of that set's first person, who pays for the set's static visibility); put
-    (seconds, people[, first person's seconds])."""
+def _renderer(room_dir: str, dcfg, spots, shadow: bool, device: str = "cpu", rays: str = "auto"):
+    """The renderer a run times and its call for one person: (renderer, render(person, translation,
+    relay_offset)). Image samples: the fit's K spots, the flash and ``nlos_ambient`` through one
+    person -> pixel pass; ``shadow``: what the fit's shadow step renders of a person under the
+    first spot (its settings and components; ``relay_offset`` picks the relay set)."""
     import torch
 
     from nlos_spotlight.data.flash import FLASH_SPOT_SAMPLES, flash_scene
-    from nlos_spotlight.render.rays import TALLY
+    from nlos_spotlight.fit.config import FitConfig
     from nlos_spotlight.render.surface import StaticSurfaces
     from nlos_spotlight.render.transport import Renderer
     from nlos_spotlight.scene.io import load_scene
     from nlos_spotlight.scene.los import los_mesh
 
-    torch.set_num_threads(1)
-    if legacy:
-        _legacy(legacy)
     scene = load_scene(room_dir)
     surfaces = StaticSurfaces(scene)
     los = los_mesh(surfaces.mesh, surfaces.engine, scene.camera, dcfg.los_vertices)
-    from nlos_spotlight.fit.config import FitConfig
-
     fc = FitConfig()
     settings = dcfg.render_settings(device=device, rays=rays, shadow_samples=fc.shadow_samples)
-    if shadow:  # as the fit's shadow step: a renderer of the one chosen spot, its settings and components
+    if shadow:
         from nlos_spotlight.fit.shadow import components
 
         settings = dataclasses.replace(settings, bounce_body_samples=fc.bounce_body_samples, shadow_depth=fc.shadow_depth)
         r = Renderer(scene, settings, aim_points=los.centroids()[spots[:1]])
-        y = r.spot_vector(0)
-        comps = components(fc)
-        with torch.no_grad():
-            r.render(y, people[0][0], torch.as_tensor(people[0][1]), comps, relay_offset=0.5)  # the room's light
-            barrier.wait()
-            t = time.perf_counter()
-            r.render(y, people[0][0], torch.as_tensor(people[0][1]), comps, relay_offset=0.25)  # a new relay set
-            first = time.perf_counter() - t
-            TALLY.reset()
-            t = time.perf_counter()
-            for person, tr in people:
-                r.render(y, person, torch.as_tensor(tr), comps, relay_offset=0.25)
-        queue.put({"seconds": time.perf_counter() - t, "people": len(people), "first": first, **_tally()})
-        return
+        y, comps = r.spot_vector(0), components(fc)
+        return r, lambda person, tr, offset=0.25: r.render(y, person, torch.as_tensor(tr), comps, relay_offset=offset)
     r = Renderer(scene, settings, aim_points=los.centroids())
     flash = Renderer(flash_scene(scene), dataclasses.replace(settings, spot_samples=settings.spot_samples
                                                              * FLASH_SPOT_SAMPLES), aim_points=scene.camera.look_at[None])
+    return r, lambda person, tr, offset=None: r.transport_images(person, tr, spots, also=(flash,), nlos_ambient=True)
+
+
+def _worker(room_dir: str, dcfg, people, spots, device: str, rays: str, legacy: str, shadow: bool, barrier,
+            queue) -> None:
+    """Build the renderer, wait for the others, render every person (their image samples, or with
+    ``shadow`` what the fit's shadow step renders of them under the first spot, one relay set: put
+    also the seconds of that set's first person, who pays for the set's static visibility); put
+    the seconds, the people and this process's ray tally."""
+    import torch
+
+    from nlos_spotlight.render.rays import TALLY
+
+    torch.set_num_threads(1)
+    if legacy:
+        _legacy(legacy)
+    r, render = _renderer(room_dir, dcfg, spots, shadow, device, rays)
+    first = {}
     with torch.no_grad():
-        r.transport_images(people[0][0], people[0][1], spots, also=(flash,), nlos_ambient=True)  # warm-up
+        render(*people[0], 0.5)  # warm-up (the shadow step: the room's light and one relay set)
         barrier.wait()
+        if shadow:
+            t = time.perf_counter()
+            render(*people[0], 0.25)  # a new relay set
+            first = {"first": time.perf_counter() - t}
         TALLY.reset()
         t = time.perf_counter()
         for person, tr in people:
-            r.transport_images(person, tr, spots, also=(flash,), nlos_ambient=True)
+            render(person, tr)
         if device == "cuda":
             torch.cuda.synchronize()
-    queue.put({"seconds": time.perf_counter() - t, "people": len(people), **_tally()})
+    queue.put({"seconds": time.perf_counter() - t, "people": len(people), **first, **_tally()})
+
+
+def _split_worker(room_dir: str, dcfg, people, spots, shadow: bool, queue) -> None:
+    """Put what blocks one person's shadow rays (its image samples, or with ``shadow`` the shadow
+    step's render): the share of rays the room's static mesh blocks, the body blocks, and both; and
+    the engine's seconds on those rays against the room and body together (as rendered), the room
+    alone and the body alone (the best of 3 each, one thread)."""
+    import torch
+
+    from nlos_spotlight.render.rays import TALLY
+
+    torch.set_num_threads(1)
+    person, tr = people[0]
+    r, render = _renderer(room_dir, dcfg, spots, shadow)
+    with torch.no_grad():
+        render(person, tr, 0.5)  # warm-up: the loops compiled, the room's precompute done
+        render(person, tr)
+        TALLY.keep = []
+        render(person, tr)
+    calls, TALLY.keep = TALLY.keep, None
+    mesh = person.translated_mesh(np.asarray(tr, np.float64))
+    static = r.rays
+    engines = {"both": static.with_body(mesh), "static": static, "body": type(static)(mesh.vertices, mesh.faces)} \
+        if hasattr(static, "with_body") else None
+    if engines is None:  # embreex: one BVH over both, as SceneRays builds it
+        from nlos_spotlight.render.rays import SceneRays
+
+        engines = {"both": SceneRays(static, mesh).joined, "static": static, "body": type(static)(mesh.vertices, mesh.faces)}
+    out = {"rays": int(sum(len(c[0]) for c in calls))}
+    for name, engine in engines.items():
+        best, blocked = np.inf, 0
+        for _ in range(3):
+            t = time.perf_counter()
+            hits = [engine.occluded_rays(o, d, length) for o, d, length, _ in calls]
+            best = min(best, time.perf_counter() - t)
+            blocked = int(sum(h.sum() for h in hits))
+        out[f"{name}_seconds"], out[f"{name}_blocked"] = best, blocked / out["rays"]
+    out["both_and_static_blocked"] = float(np.mean(np.concatenate([a for *_, a in calls])))  # as rendered
+    queue.put(out)
+
+
+def ray_split(room_dir: Path, dcfg, people, spots, shadow: bool) -> dict:
+    """:func:`_split_worker` in its own process (one thread, as the fit's workers)."""
+    ctx = mp.get_context("spawn")
+    queue = ctx.Queue()
+    p = ctx.Process(target=_split_worker, args=(str(room_dir), dcfg, people, spots, shadow, queue))
+    p.start()
+    out = queue.get()
+    p.join()
+    return out
 
 
 def _tally() -> dict:
@@ -280,6 +336,14 @@ def main() -> None:
             if args.shadow:
                 print("  a relay set's first person (its static visibility), seconds: "
                       + ", ".join(f"{k} {float(np.median(v)):.2f}" for k, v in firsts.items()), flush=True)
+        split = ray_split(work / "room", dcfg, ppl, spots, args.shadow)
+        one = next(e["ray_budget"] for e in extra if e["threads"] == min(cores))
+        split["people_per_s_static_free"] = 1 / (one["seconds_per_person"] - one["ray_seconds_per_person"]
+                                                 * (1 - split["body_seconds"] / split["both_seconds"]))
+        print(f"  what blocks a person's {split['rays']:,} rays: the room {split['static_blocked']:.0%}, the body "
+              f"{split['body_blocked']:.0%} (either {split['both_blocked']:.0%}); tested against both {split['both_seconds']:.2f} s, "
+              f"the room alone {split['static_seconds']:.2f} s, the body alone {split['body_seconds']:.2f} s: with the room's "
+              f"static visibility free, at most {split['people_per_s_static_free']:.2f} people/s a core", flush=True)
         if torch.cuda.is_available():
             card = torch.cuda.get_device_name(0)
             gpu = throughput(work / "room", dcfg, ppl, spots, 1, paths["new"], "cuda", args.shadow)
@@ -304,7 +368,7 @@ def main() -> None:
             "measured": ("the fit's shadow step (nlos_shadow and nlos_bounce at FitConfig's shadow_samples, "
                          "bounce_body_samples and shadow_depth) under the first spot, one relay set built before"
                          if args.shadow else "image samples (10 spots, flash, nlos_ambient)"),
-            "rows": rows, "all_paths_people_per_s": extra}
+            "rows": rows, "all_paths_people_per_s": extra, "ray_split": split}
     out.with_suffix(".json").write_text(json.dumps(meta, indent=1))
     print(f"wrote {out}")
 

@@ -196,7 +196,7 @@ def occlusion_engine(static: RayEngine, backend: str = "auto", device: str = "cp
 @dataclass
 class RayTally:
     """What a process's :class:`SceneRays` queries have cost since :meth:`reset`: the renderer's
-    per-person shadow rays (``benchmarks/render_throughput.py --budget`` reads it)."""
+    per-person shadow rays (``benchmarks/render_throughput.py`` reads it)."""
 
     rays: int = 0
     """Shadow rays tested."""
@@ -204,6 +204,8 @@ class RayTally:
     """Wall seconds inside the ray engine."""
     calls: int = 0
     """Queries (each a batch of rays)."""
+    keep: list | None = None
+    """When a list, each query's (origins, directions, lengths, answers) is appended to it."""
 
     def reset(self) -> None:
         self.rays, self.seconds, self.calls = 0, 0.0, 0
@@ -248,6 +250,8 @@ class SceneRays:
         t = time.perf_counter()
         out = engine.occluded_rays(origins, dirs, lengths)
         TALLY.add(len(origins), time.perf_counter() - t)
+        if TALLY.keep is not None:
+            TALLY.keep.append((origins, dirs, lengths, out))
         return out
 
     def occluded(self, a, b, normal_a=None, normal_b=None) -> np.ndarray:
