@@ -185,7 +185,7 @@ def _split_worker(room_dir: str, dcfg, people, spots, shadow: bool, queue) -> No
     alone and the body alone (the best of 3 each, one thread)."""
     import torch
 
-    from nlos_spotlight.render.rays import TALLY
+    from nlos_spotlight.render.rays import TALLY, SceneRays
 
     torch.set_num_threads(1)
     person, tr = people[0]
@@ -198,22 +198,15 @@ def _split_worker(room_dir: str, dcfg, people, spots, shadow: bool, queue) -> No
     calls, TALLY.keep = TALLY.keep, None
     mesh = person.translated_mesh(np.asarray(tr, np.float64))
     static = r.rays
-    engines = {"both": static.with_body(mesh), "static": static, "body": type(static)(mesh.vertices, mesh.faces)} \
-        if hasattr(static, "with_body") else None
-    if engines is None:  # embreex: one BVH over both, as SceneRays builds it
-        from nlos_spotlight.render.rays import SceneRays
-
-        engines = {"both": SceneRays(static, mesh).joined, "static": static, "body": type(static)(mesh.vertices, mesh.faces)}
+    engines = {"both": SceneRays(static, mesh).joined, "static": static, "body": type(static)(mesh.vertices, mesh.faces)}
     out = {"rays": int(sum(len(c[0]) for c in calls))}
     for name, engine in engines.items():
-        best, blocked = np.inf, 0
+        best = np.inf
         for _ in range(3):
             t = time.perf_counter()
-            hits = [engine.occluded_rays(o, d, length) for o, d, length, _ in calls]
+            hits = [engine.occluded_rays(o, d, length) for o, d, length in calls]
             best = min(best, time.perf_counter() - t)
-            blocked = int(sum(h.sum() for h in hits))
-        out[f"{name}_seconds"], out[f"{name}_blocked"] = best, blocked / out["rays"]
-    out["both_and_static_blocked"] = float(np.mean(np.concatenate([a for *_, a in calls])))  # as rendered
+        out[f"{name}_seconds"], out[f"{name}_blocked"] = best, int(sum(h.sum() for h in hits)) / out["rays"]
     queue.put(out)
 
 

@@ -205,7 +205,7 @@ class RayTally:
     calls: int = 0
     """Queries (each a batch of rays)."""
     keep: list | None = None
-    """When a list, each query's (origins, directions, lengths, answers) is appended to it."""
+    """When a list, each query's (origins, directions, lengths) is appended to it."""
 
     def reset(self) -> None:
         self.rays, self.seconds, self.calls = 0, 0.0, 0
@@ -251,7 +251,7 @@ class SceneRays:
         out = engine.occluded_rays(origins, dirs, lengths)
         TALLY.add(len(origins), time.perf_counter() - t)
         if TALLY.keep is not None:
-            TALLY.keep.append((origins, dirs, lengths, out))
+            TALLY.keep.append((origins, dirs, lengths))
         return out
 
     def occluded(self, a, b, normal_a=None, normal_b=None) -> np.ndarray:
