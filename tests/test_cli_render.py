@@ -73,15 +73,19 @@ def test_render_hand_written_scene(tmp_path):
     # a person-sized box in the hidden region (x > 0.2), hidden from camera and projector by nothing but
     # distance here: the point is the file format and the command, the physics is tested elsewhere
     (d / "human.ply").write_text(_box_ply((1.0, 1.3, 0.0), (1.4, 1.6, 1.75)))
-    def render(name, *extra):
-        cmd = [sys.executable, "-m", "nlos_spotlight.cli", "render", str(d), "--spot-point", "-0.3,0,1.0",
-               "--out", str(tmp_path / name), "--person-samples", "256", "--spot-samples", "64",
-               "--transport-samples", "1", *extra]
-        res = subprocess.run(cmd, capture_output=True, text=True)
-        assert res.returncode == 0, res.stderr
+    def render(name, *extra, process=False):
+        args = ["render", str(d), "--spot-point", "-0.3,0,1.0", "--out", str(tmp_path / name),
+                "--person-samples", "256", "--spot-samples", "64", "--transport-samples", "1", *extra]
+        if process:  # the console command as a user runs it
+            res = subprocess.run([sys.executable, "-m", "nlos_spotlight.cli", *args], capture_output=True, text=True)
+            assert res.returncode == 0, res.stderr
+        else:  # the same entry point in this process (a new process costs ~3 s of imports)
+            from nlos_spotlight.cli import main
+
+            assert main(args) == 0
         return np.load(tmp_path / name)
 
-    img = render("img.npy")
+    img = render("img.npy", process=True)
     assert img.dtype == np.float32 and img.shape == (64, 64, 3) and np.isfinite(img).all()
     n = render("nlos.npy", "--components", "nlos")
     assert n.sum() > 0 and n.max() < img.max() * 1e-2  # the hidden signal is weak but present

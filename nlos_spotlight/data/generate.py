@@ -10,6 +10,7 @@ records the config, seeds, versions and one ``content_sha256`` over all content.
 
 from __future__ import annotations
 
+import functools
 import json
 import platform
 import time
@@ -59,6 +60,14 @@ def plan(cfg: DatasetConfig) -> list[ScenePlan]:
 
 
 def versions() -> dict[str, str]:
+    """The versions of Python and of the packages that decide what is rendered and trained (a copy:
+    recorded in every manifest and checkpoint)."""
+    return dict(_versions())
+
+
+@functools.lru_cache(maxsize=1)
+def _versions() -> tuple[tuple[str, str], ...]:
+    # read once a process: the metadata scan costs ~30 ms, and a fit checkpoints dozens of times
     import importlib.metadata as md
 
     out = {"python": platform.python_version()}
@@ -67,7 +76,7 @@ def versions() -> dict[str, str]:
             out[pkg] = md.version(pkg)
         except md.PackageNotFoundError:
             pass
-    return out
+    return tuple(out.items())
 
 
 FORMAT_1_VALUES = {"transport_samples_per_scene": -1, "stored_spots_top": 6, "trajectories_per_train_scene": 0,

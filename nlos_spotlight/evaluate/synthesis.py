@@ -79,12 +79,19 @@ class Synthesizer:
 
     def light(self, params, xy) -> tuple[torch.Tensor, torch.Tensor]:
         """(N, Q), (H, W, 3) float64 each, of body ``params`` (its albedo ignored) standing at ``xy``."""
+        n, q = self.lights(params, np.asarray(xy, float)[None])
+        return n[0], q[0]
+
+    def lights(self, params, xys: np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
+        """(N, Q), (K, H, W, 3) float64 each, of body ``params`` standing at each of ``xys`` (K, 2):
+        the body posed once (posing costs as much as a coarse render)."""
         half = dataclasses.replace(params, albedo=np.full(3, 0.5))
         body = self.pose(half, self.faces)
         person = Person.from_mesh(body, half.albedo, self.settings.person_samples, self.quadrature)
-        out = self.r.render(self.r.spot_vector(0), person, translation=np.array([*np.asarray(xy, float), self.floor_z]),
-                            components=PERSON).components
-        self.renders += 1
+        xys = np.asarray(xys, float).reshape(-1, 2)
+        at = np.concatenate([xys, np.full((len(xys), 1), self.floor_z)], 1)
+        out = self.r.render(self.r.spot_vector(0), person, translation=at, components=PERSON).components
+        self.renders += len(xys)
         # at albedo 1/2: nlos = N / 2, nlos_ambient = (1 - 1/2) Q
         return 2 * out["nlos"].double(), 2 * out["nlos_ambient"].double()
 
@@ -139,15 +146,14 @@ class Bank:
     """
 
     def __init__(self, syn: Synthesizer, cells: np.ndarray, facings: int):
-        self.cells, self.keys, n, q = cells, [], [], []
-        for c, xy in enumerate(cells):
-            for posture in BANK_POSTURES:
-                for k in range(facings):
-                    light = syn.light(mean_body(posture, 360.0 * k / facings), xy)
-                    n.append(light[0].float())
-                    q.append(light[1].float())
-                    self.keys.append(c)
-        self.n, self.q = torch.stack(n), torch.stack(q)
+        self.cells, n, q = cells, [], []
+        for posture in BANK_POSTURES:
+            for k in range(facings):
+                light = syn.lights(mean_body(posture, 360.0 * k / facings), cells)  # one body at every cell
+                n.append(light[0].float())
+                q.append(light[1].float())
+        self.n, self.q = torch.cat(n), torch.cat(q)
+        self.keys = list(range(len(cells))) * (len(BANK_POSTURES) * facings)
 
     def best(self, d: torch.Tensor, w: torch.Tensor) -> np.ndarray:
         """The floor cell of the bank's render nearest the photograph's light d (weights w)."""

@@ -66,6 +66,20 @@ def test_light_is_affine_in_the_albedo(synth):
     assert float((got - want).norm() / want.norm()) < 1e-10
 
 
+def test_one_body_at_many_places_is_each_place_rendered_alone(synth):
+    """``lights`` (the bank's path: the body posed once, rendered at K places in one call) gives
+    what ``light`` gives at each place."""
+    params = mean_body("sitting", 90.0)
+    xys = np.array([[1.2, 1.8], [1.5, 2.4], [0.9, 2.1]])
+    n, q = synth.lights(params, xys)
+    assert n.shape == q.shape == (3, *synth.r.render(synth.r.spot_vector(0), components=("direct",)).image.shape)
+    for k, xy in enumerate(xys):
+        n1, q1 = synth.light(params, xy)
+        assert float(n1.abs().max()) > 0
+        assert torch.equal(n[k], n1) and torch.equal(q[k], q1)
+    assert not torch.equal(n[0], n[1])
+
+
 def test_albedo_fit_matches_a_brute_force_search():
     g = torch.Generator().manual_seed(1)
     n, q, d = (torch.rand(4, 5, 3, generator=g, dtype=torch.float64) for _ in range(3))
