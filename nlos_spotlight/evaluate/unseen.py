@@ -24,7 +24,7 @@ from ..lighting import Illumination, policy_rng
 from ..lighting.learned import policy_named
 from ..train.config import TrainConfig
 from ..train.loop import Trainer
-from ..train.recipe import train_validated
+from ..train.recipe import resume_validated, train_validated
 
 
 def room_lights(rooms: list[SceneTensors], policy: str, seed: int, ien=None) -> list[Illumination]:
@@ -54,8 +54,7 @@ def train_unseen(cfg: TrainConfig, train_rooms: list[SceneTensors], val_rooms: l
                                                  "val_rooms": len(val_rooms)}, indent=1))
     tr = Trainer(cfg, train_rooms, out, val_scenes=val_rooms or None)
     tr.val_lights = val_lights if val_rooms else None
-    if (out / "checkpoint.pt").exists():
-        tr.load(out / "checkpoint.pt")
+    resume_validated(tr, out)
     train_validated(tr, out, progress)
     return tr
 

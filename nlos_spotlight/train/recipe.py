@@ -23,7 +23,7 @@ import torch
 from ..data.tensors import SceneTensors
 from ..models.nlos_net import NLOSNetConfig
 from .config import TrainConfig
-from .loop import Trainer
+from .loop import Trainer, truncate_log
 
 
 @dataclass
@@ -97,18 +97,36 @@ def seen_config(rooms: int, seed: int = 0, noise: bool = True, policy: str = "or
                        arch=arch, policy=policy, sensor_noise=noise)
 
 
+CHECKPOINT_SECONDS = 30.0
+"""Least wall time between two resumable checkpoints of :func:`train_validated` (a network with its
+optimizer is tens of MB; a short run validates every step): a kill loses at most this much training,
+and the resumed run replays it to the same weights (its random state is in the checkpoint)."""
+
+
+def resume_validated(tr: Trainer, out: Path) -> None:
+    """Continue ``tr`` from ``out``/checkpoint.pt where a run left one, and drop the validation rows
+    after it (:func:`train_validated` validates those steps again)."""
+    if (out / "checkpoint.pt").exists():
+        tr.load(out / "checkpoint.pt")
+    truncate_log(out / "validation.csv", tr.step)
+
+
 def train_validated(tr: Trainer, out: Path, progress: bool = False) -> int:
     """Train ``tr`` to its last step (or early stop), validating when due and checkpointing then
-    (``out``/checkpoint.pt); returns the steps taken and leaves ``tr`` holding the best weights
-    (``out``/best.pt) where validation kept any."""
+    (``out``/checkpoint.pt, at most every :data:`CHECKPOINT_SECONDS`); returns the steps taken and
+    leaves ``tr`` holding the best weights (``out``/best.pt) where validation kept any."""
+    import time
+
     from .loop import _validation_pass
 
-    stop = tr.stopped_early
+    stop, saved = tr.stopped_early, time.monotonic()
     while tr.step < tr.total_steps and not stop:
         tr.train_step()
         if tr.validation_due:
             stop = _validation_pass(tr, out)
-            tr.save(out / "checkpoint.pt")
+            if time.monotonic() - saved >= CHECKPOINT_SECONDS:
+                tr.save(out / "checkpoint.pt")
+                saved = time.monotonic()
             if progress:
                 print(f"  {out.name}: step {tr.step}/{tr.total_steps} best val {tr.best_val:.3f}", flush=True)
     steps = tr.step
@@ -148,9 +166,7 @@ def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs
     (out / "config.json").write_text(json.dumps({"train": cfg.to_dict(), "people_per_room": n,
                                                  "epochs": epochs}, indent=1))
     tr = Trainer(cfg, train, out, val_scenes=[r.val for r in rooms])
-    ckpt = out / "checkpoint.pt"
-    if ckpt.exists():
-        tr.load(ckpt)
+    resume_validated(tr, out)
     if ien_state is not None:
         tr.ien.load_state_dict(ien_state)
     if spots is not None:
@@ -178,4 +194,5 @@ def run_seen(cfg: TrainConfig, rooms: list[RoomSplit], n: int, out: Path, epochs
     return result
 
 
-__all__ = ["RoomSplit", "SeenResult", "run_seen", "seen_config", "split_masks", "split_room", "train_validated"]
+__all__ = ["RoomSplit", "SeenResult", "run_seen", "seen_config", "split_masks", "split_room", "resume_validated",
+           "train_validated"]

@@ -71,6 +71,49 @@ def test_best_weights_are_kept_and_patience_stops(toy_scene, tmp_path, monkeypat
     assert (tmp_path / "validation.csv").read_text().count("\n") == 5
 
 
+def test_a_killed_validated_run_resumes_to_the_same_weights(toy_scene, tmp_path, monkeypatch):
+    """``train_validated`` checkpoints at most every ``CHECKPOINT_SECONDS``; a run killed after a
+    validation row it had not checkpointed resumes from its checkpoint (that row dropped, the steps
+    redone) to the uninterrupted run's weights and validation log."""
+    import nlos_spotlight.train.recipe as recipe
+
+    from nlos_spotlight.models.nlos_net import NLOSNetConfig
+
+    room = toy_scene(n=24, res=8)
+    fit, val = split_validation(room, 4)
+    cfg = TrainConfig(steps=6, eval_every=1, batch_size=4, sensor_noise=False,
+                      net=NLOSNetConfig(backbone="resnet10-narrow", stem="half"))
+    make = lambda out: out.mkdir(exist_ok=True) or Trainer(cfg, [fit], out, val_scenes=[val])
+    whole = make(tmp_path / "whole")
+    recipe.train_validated(whole, tmp_path / "whole")
+    assert not (tmp_path / "whole" / "checkpoint.pt").exists()  # under 30 s: never checkpointed
+
+    out = tmp_path / "killed"
+    killed = make(out)
+    monkeypatch.setattr(recipe, "CHECKPOINT_SECONDS", 0.0)
+    real_step = Trainer.train_step
+
+    def step_until_the_kill(self):
+        if self.step == 3:  # steps 1-3 validated and checkpointed
+            monkeypatch.setattr(recipe, "CHECKPOINT_SECONDS", float("inf"))
+        if self.step == 4:  # step 4 validated, not checkpointed: the kill
+            raise KeyboardInterrupt
+        real_step(self)
+
+    monkeypatch.setattr(Trainer, "train_step", step_until_the_kill)
+    with pytest.raises(KeyboardInterrupt):
+        recipe.train_validated(killed, out)
+    monkeypatch.setattr(Trainer, "train_step", real_step)
+    assert (out / "validation.csv").read_text().count("\n") == 1 + 4  # header and steps 1-4
+    again = make(out)
+    recipe.resume_validated(again, out)
+    assert again.step == 3 and (out / "validation.csv").read_text().count("\n") == 1 + 3
+    recipe.train_validated(again, out)
+    assert again.step == whole.step == 6
+    assert all(torch.equal(a, b) for a, b in zip(whole.net.state_dict().values(), again.net.state_dict().values()))
+    assert (out / "validation.csv").read_text() == (tmp_path / "whole" / "validation.csv").read_text()
+
+
 def test_cosine_schedule_decays_to_one_percent(toy_scene):
     cfg = TrainConfig(steps=10, batch_size=4, sensor_noise=False, lr_schedule="cosine", lr=1e-3)
     tr = Trainer(cfg, [toy_scene()], Path("unused"))
