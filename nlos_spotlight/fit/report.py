@@ -74,9 +74,10 @@ def _network(cfg: FitConfig) -> str:
 
 
 def write_fit_report(out: Path, cfg: FitConfig, room: dict, spot: dict, result, timing: dict,
-                     ceiling: dict | None = None) -> dict:
+                     ceiling: dict | None = None, memory: dict | None = None) -> dict:
     """Write report.json, the figures and report.html (atomically); returns report.json's content.
-    ``ceiling``: the room's ceiling (``fit/ceiling.py``), or None."""
+    ``ceiling``: the room's ceiling (``fit/ceiling.py``), or None; ``memory``: this run's peak
+    memory (``fit.run.peak_memory_mb``), or None."""
     from ..data.store import atomic_json
     from . import figures
 
@@ -97,7 +98,7 @@ def write_fit_report(out: Path, cfg: FitConfig, room: dict, spot: dict, result, 
         "capture": capture_record(out, cfg, spot["face"]),
         "training": {"people": cfg.people, "policy": cfg.policy, "method": cfg.method, "steps": result.steps,
                      "seconds": result.seconds, "network": _network(cfg)},
-        "room": room, "timing_s": timing, "config": cfg.to_dict(),
+        "room": room, "timing_s": timing, "peak_memory_mb": memory, "config": cfg.to_dict(),
         "frame": "positions: x, y in the room's z-up frame (m); the network's own output is the region frame "
                  "of nlos predict",
     }
@@ -155,6 +156,14 @@ def _aim_blocks(r: dict) -> list[Block]:
                   image="figures/room.png")]
 
 
+def _memory_phrase(m: dict | None) -> str:
+    """', peak memory ...' of report.json's ``peak_memory_mb`` (empty for a report without it)."""
+    if not m:
+        return ""
+    each = f", each rendering process at most {m['rendering_process']:,} MB" if m.get("rendering_process") else ""
+    return f"; peak memory: this process {m['fit_process']:,} MB{each}"
+
+
 LIT = {"spot": "the spot on", "flash": "the flash on", "ambient": "the projector off"}
 """What the capture's metering sees, per light (``report.json``'s ``light``)."""
 
@@ -166,7 +175,7 @@ def _blocks(r: dict) -> list[Block]:
         Block("h1", "Room model"),
         Block("p", f"Source: {r['config']['name']} preset, {r['training']['people']} synthetic people trained on, "
                    f"method {r['training']['method']} (policy {r['training']['policy']}); fitted in "
-                   f"{r['timing_s']['total_s'] / 60:.1f} min."),
+                   f"{r['timing_s']['total_s'] / 60:.1f} min{_memory_phrase(r.get('peak_memory_mb'))}."),
         *_aim_blocks(r),
         *_policy_blocks(r.get("spot_policies")),
         Block("h2", "Capture"),

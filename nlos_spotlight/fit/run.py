@@ -208,6 +208,18 @@ class StepClock:
         return sum(v for k, v in self.seconds.items() if k != "total_s")
 
 
+def peak_memory_mb() -> dict:
+    """This run's peak resident memory, MB: the fit's own process, and the largest process it started
+    and waited for, i.e. a rendering process under ``nlos fit`` (None when it started none: one
+    worker, or the people were rendered by an earlier run of a resumed fit). The two measure what
+    ``fit.config.WORKER_BYTES`` sets aside a process. Linux counts ``ru_maxrss`` in kB."""
+    import resource
+
+    mb = lambda who: resource.getrusage(who).ru_maxrss / 1024
+    children = mb(resource.RUSAGE_CHILDREN)
+    return {"fit_process": round(mb(resource.RUSAGE_SELF)), "rendering_process": round(children) if children > 0 else None}
+
+
 def reuse_people(source: Path, out: Path, record: dict) -> None:
     """Start ``out`` from the room and rendered people of the room model ``source`` (same room, people
     and render settings; other :data:`TRAINING_ONLY` settings): its ``room/`` copied, its ``data/``
@@ -369,7 +381,8 @@ def _fit_steps(room: str, out: Path, cfg: FitConfig, flags: dict, record: dict, 
 
     ceiling = ceiling_record(out, cfg, spot, progress)
     clock.lap("ceiling_s")
-    report = write_fit_report(out, cfg, setup, spot, result, {**clock.seconds, "total_s": clock.total}, ceiling)
+    report = write_fit_report(out, cfg, setup, spot, result, {**clock.seconds, "total_s": clock.total}, ceiling,
+                              peak_memory_mb())
     clock.lap("report_s")
     h = report["heldout"]
     console.print(f"held-out people: {h['people']}, posture {100 * h['posture_accuracy']:.1f}% (upright/sitting/"

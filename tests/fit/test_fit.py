@@ -74,6 +74,10 @@ def test_report_matches_its_contract(fitted):
     assert abs((s["azimuth_deg"] - heading - s["pan_deg"] + 180) % 360 - 180) < 1e-9
     html = (out / "report.html").read_text()
     assert html.count("data:image/png;base64,") == 4 and "Where to aim the projector" in html
+    # the peak memory is this process's high-water mark then (the kernel's VmHWM, read now, cannot be lower)
+    hwm = next(int(line.split()[1]) for line in open("/proc/self/status") if line.startswith("VmHWM:")) / 1024
+    mem = on_disk["peak_memory_mb"]
+    assert 100 < mem["fit_process"] <= hwm + 1 and f"peak memory: this process {mem['fit_process']:,} MB" in html
 
 
 def test_report_holds_the_rooms_ceiling(fitted):
@@ -434,7 +438,8 @@ def test_killed_fit_resumes_to_the_same_model(fitted, room_dir, tmp_path):
     os.killpg(proc.pid, signal.SIGKILL)  # the fit and its rendering process
     proc.wait()
     assert not (dest / "report.json").exists(), "killed too late to test resuming"
-    fit_room(str(room_dir), dest, two, {}, resume=True, progress=False)  # in this process: ~5 s of imports less
+    again = fit_room(str(room_dir), dest, two, {}, resume=True, progress=False)  # in this process: ~5 s of imports less
+    assert again["peak_memory_mb"]["rendering_process"] > 100  # its second rendering process, waited for
     sha = lambda d: json.loads((d / "data" / "manifest.json").read_text())["content_sha256"]
     assert sha(dest) == sha(out)
     assert json.loads((dest / "report.json").read_text())["heldout"] == report["heldout"]
