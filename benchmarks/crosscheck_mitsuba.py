@@ -9,6 +9,12 @@ Prints, per scene and protocol, the relative error of the total and the correlat
   ``nlos + nlos_shadow``, and in the last column the error of ``nlos`` alone.
 
     python benchmarks/crosscheck_mitsuba.py --spp 262144 --res 32
+
+``--integrator ptracer`` uses Mitsuba's particle tracer instead of its camera-side path tracer, and
+``--seeds`` repeats the Mitsuba render at several seeds (their spread is its Monte Carlo noise):
+
+    python benchmarks/crosscheck_mitsuba.py --scenes diffuse_corner --protocols blocked --spp 8192 \
+        --seeds 5,6 --integrator path     # then --integrator ptracer
 """
 
 from __future__ import annotations
@@ -48,21 +54,26 @@ def main() -> None:
     ap.add_argument("--res", type=int, default=32)
     ap.add_argument("--scenes", default=",".join(CROSSCHECK))
     ap.add_argument("--protocols", default="presence,scatter,blocked")
+    ap.add_argument("--integrator", default="path", choices=("path", "ptracer"), help="Mitsuba's integrator")
+    ap.add_argument("--seeds", default="1", help="Mitsuba seeds, comma-separated: one row each")
     args = ap.parse_args()
-    print(f"{'scene':16s} {'protocol':9s} {'ours':>10s} {'mitsuba':>10s} {'rel.err':>8s} {'corr4x4':>8s} "
+    print(f"{args.integrator}, {args.spp} samples a pixel")
+    print(f"{'scene':16s} {'protocol':9s} {'seed':>4s} {'ours':>10s} {'mitsuba':>10s} {'rel.err':>8s} {'corr4x4':>8s} "
           f"{'t_mi[s]':>8s} {'nlos only':>9s}")
     with torch.no_grad():
         for kind in args.scenes.split(","):
             images = ours_nlos(kind, args.res)
             for proto in args.protocols.split(","):
                 ours = images[proto]
-                t = time.perf_counter()
-                ref = mitsuba_nlos(corner_scene(kind, args.res), SPOT_TARGET, args.spp, seed=1, protocol=proto)
-                dt = time.perf_counter() - t
-                rel = ours.sum() / ref.sum() - 1
-                alone = f"{images['scatter'].sum() / ref.sum() - 1:+9.4f}" if proto == "presence" else ""
-                print(f"{kind:16s} {proto:9s} {ours.sum():10.5g} {ref.sum():10.5g} {rel:+8.4f} "
-                      f"{block_corr(ours, ref):8.4f} {dt:8.1f} {alone}", flush=True)
+                for seed in (int(v) for v in args.seeds.split(",")):
+                    t = time.perf_counter()
+                    ref = mitsuba_nlos(corner_scene(kind, args.res), SPOT_TARGET, args.spp, seed=seed, protocol=proto,
+                                       integrator=args.integrator)
+                    dt = time.perf_counter() - t
+                    rel = ours.sum() / ref.sum() - 1
+                    alone = f"{images['scatter'].sum() / ref.sum() - 1:+9.4f}" if proto == "presence" else ""
+                    print(f"{kind:16s} {proto:9s} {seed:4d} {ours.sum():10.5g} {ref.sum():10.5g} {rel:+8.4f} "
+                          f"{block_corr(ours, ref):8.4f} {dt:8.1f} {alone}", flush=True)
 
 
 if __name__ == "__main__":

@@ -93,7 +93,11 @@ def test_nlos_shadow_matches_mitsuba(kind):
     """``nlos_shadow`` against path tracing of a black person minus no person at the same seeds.
 
     Paths that never meet the body are the same in both renders and cancel, so the difference is
-    the light the body stops with little noise: about 4% of ``nlos`` in these scenes.
+    the light the body stops with little noise: about 4% of ``nlos`` in these scenes. Mitsuba's
+    particle tracer: at 8,192 samples a pixel its blocked light moves by 1-3% between seeds 5, 6 and
+    7, the camera-side path tracer's by 20-40% (its paths must find the small spot from the hidden
+    floor: rare, heavy weights), its block correlation with ours 0.99 against 0.80-0.89
+    (docs/results/mitsuba-blocked-integrators.txt).
     """
     sc = corner_scene(kind, RES)
     # 2 x 2 camera sub-samples: the shadow is smooth (4 x 4 moves the totals by under 1%, at 4x the time)
@@ -102,13 +106,14 @@ def test_nlos_shadow_matches_mitsuba(kind):
     with torch.no_grad():
         out = r.render(r.spot_vector(0), person, components=("nlos", "nlos_shadow"))
     ours, nlos = out["nlos_shadow"].numpy(), out["nlos"].numpy()
-    ref = mi_ref.mitsuba_nlos(sc, SPOT_TARGET, SPP, seed=5, protocol="blocked")
+    ref = mi_ref.mitsuba_nlos(sc, SPOT_TARGET, 2 * PT_SPP, seed=5, protocol="blocked", integrator="ptracer")
     rel = ours.sum() / ref.sum() - 1
     print(f"{kind}: shadow ours {ours.sum():.4g} mitsuba {ref.sum():.4g} rel {rel:+.3f}; "
           f"shadow / nlos {ours.sum() / nlos.sum():+.4f}")
     assert ref.sum() < 0 and ours.sum() < 0
-    assert abs(rel) <= 0.15
-    assert np.corrcoef(block_means(ours, 8), block_means(ref, 8))[0, 1] >= 0.8
+    # rel -1.0% to -5.2% over the two scenes and three seeds (docs/results/mitsuba-blocked-integrators.txt)
+    assert abs(rel) <= 0.10
+    assert np.corrcoef(block_means(ours, 8), block_means(ref, 8))[0, 1] >= 0.95
 
 
 def test_shadow_to_depth_ten_matches_mitsuba():
