@@ -106,7 +106,7 @@ def train_config(args, rooms: int, people: int):
 
 def train(args, rooms: list[FittedRoom]):
     """One network on the training rooms' pools, each room under its fitted spot; resumable."""
-    from nlos_spotlight.train.recipe import train_validated
+    from nlos_spotlight.train.recipe import resume_validated, train_validated
     from nlos_spotlight.lighting import Illumination
     from nlos_spotlight.train.loop import Trainer
 
@@ -120,8 +120,7 @@ def train(args, rooms: list[FittedRoom]):
     tr = Trainer(cfg, [r.split.pool for r in rooms], run, val_scenes=[r.split.val for r in rooms])
     # the fits' spots, not a fresh oracle: the comparison with the per-room fits holds the light fixed
     tr.fixed = [Illumination("spot", face=r.spot) for r in rooms]
-    if (run / "checkpoint.pt").exists():
-        tr.load(run / "checkpoint.pt")
+    resume_validated(tr, run)
     train_validated(tr, run, progress=not args.quiet)
     return tr, first_seconds(run / "train_seconds.json", t0), people
 

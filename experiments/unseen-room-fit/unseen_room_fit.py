@@ -170,7 +170,7 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: 
     """One network for the room's simulated people with the capture and augmentation of ``spec``,
     scored on the room's test people under the fitted spot and the test people's oracle spot."""
     from nlos_spotlight.data.store import atomic_npz
-    from nlos_spotlight.train.recipe import seen_config, train_validated
+    from nlos_spotlight.train.recipe import resume_validated, seen_config, train_validated
     from nlos_spotlight.evaluate.seen import score_rooms
     from nlos_spotlight.evaluate.unseen import room_lights
     from nlos_spotlight.train.imaging import relit_hidden_region
@@ -209,7 +209,7 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: 
                                                  "init": str(args.init) if v.init else None}, indent=1))
     tr = Trainer(cfg, [split.pool], run, val_scenes=[split.val])
     if (run / "checkpoint.pt").exists():
-        tr.load(run / "checkpoint.pt")
+        resume_validated(tr, run)
     elif init is not None:
         tr.net.load_state_dict(init["net"])
     train_validated(tr, run)

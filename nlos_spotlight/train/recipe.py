@@ -113,8 +113,9 @@ def resume_validated(tr: Trainer, out: Path) -> None:
 
 def train_validated(tr: Trainer, out: Path, progress: bool = False) -> int:
     """Train ``tr`` to its last step (or early stop), validating when due and checkpointing then
-    (``out``/checkpoint.pt, at most every :data:`CHECKPOINT_SECONDS`); returns the steps taken and
-    leaves ``tr`` holding the best weights (``out``/best.pt) where validation kept any."""
+    (``out``/checkpoint.pt, at most every :data:`CHECKPOINT_SECONDS`, and at the end: a finished
+    run's checkpoint holds its last weights); returns the steps taken and leaves ``tr`` holding the
+    best weights (``out``/best.pt) where validation kept any."""
     import time
 
     from .loop import _validation_pass
@@ -129,6 +130,7 @@ def train_validated(tr: Trainer, out: Path, progress: bool = False) -> int:
                 saved = time.monotonic()
             if progress:
                 print(f"  {out.name}: step {tr.step}/{tr.total_steps} best val {tr.best_val:.3f}", flush=True)
+    tr.save(out / "checkpoint.pt")
     steps = tr.step
     if (out / "best.pt").exists():
         tr.load(out / "best.pt")

@@ -86,7 +86,7 @@ def test_a_killed_validated_run_resumes_to_the_same_weights(toy_scene, tmp_path,
     make = lambda out: out.mkdir(exist_ok=True) or Trainer(cfg, [fit], out, val_scenes=[val])
     whole = make(tmp_path / "whole")
     recipe.train_validated(whole, tmp_path / "whole")
-    assert not (tmp_path / "whole" / "checkpoint.pt").exists()  # under 30 s: never checkpointed
+    assert torch.load(tmp_path / "whole" / "checkpoint.pt", weights_only=False)["step"] == 6  # the end's, alone
 
     out = tmp_path / "killed"
     killed = make(out)
@@ -108,7 +108,12 @@ def test_a_killed_validated_run_resumes_to_the_same_weights(toy_scene, tmp_path,
     again = make(out)
     recipe.resume_validated(again, out)
     assert again.step == 3 and (out / "validation.csv").read_text().count("\n") == 1 + 3
+    steps = []
+    monkeypatch.setattr(Trainer, "save", lambda self, path, real=Trainer.save:
+                        (path.name == "checkpoint.pt" and steps.append(self.step)) or real(self, path))
+    monkeypatch.setattr(recipe, "CHECKPOINT_SECONDS", 30.0)
     recipe.train_validated(again, out)
+    assert steps == [6]  # under 30 s: the end's checkpoint alone (best.pt is written as validation improves)
     assert again.step == whole.step == 6
     assert all(torch.equal(a, b) for a, b in zip(whole.net.state_dict().values(), again.net.state_dict().values()))
     assert (out / "validation.csv").read_text() == (tmp_path / "whole" / "validation.csv").read_text()
