@@ -208,9 +208,8 @@ def fit_variant(args, out: Path, spec: str, split, test, render_s: float, more: 
     (run / "config.json").write_text(json.dumps({"train": cfg.to_dict(), "variant": spec,
                                                  "init": str(args.init) if v.init else None}, indent=1))
     tr = Trainer(cfg, [split.pool], run, val_scenes=[split.val])
-    if (run / "checkpoint.pt").exists():
-        resume_validated(tr, run)
-    elif init is not None:
+    resume_validated(tr, run)  # also a run killed before its first checkpoint: its validation rows dropped
+    if tr.step == 0 and init is not None:
         tr.net.load_state_dict(init["net"])
     train_validated(tr, run)
     train_s = first_seconds(run / "train_seconds.json", t1)  # a rescored run reports its training

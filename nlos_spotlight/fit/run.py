@@ -209,13 +209,17 @@ class StepClock:
 
 
 def peak_memory_mb() -> dict:
-    """This run's peak resident memory, MB: the fit's own process, and the largest process it started
-    and waited for, i.e. a rendering process under ``nlos fit`` (None when it started none: one
-    worker, or the people were rendered by an earlier run of a resumed fit). The two measure what
-    ``fit.config.WORKER_BYTES`` sets aside a process. Linux counts ``ru_maxrss`` in kB."""
+    """Peak resident memory, MB, of this process and of the largest process it has started and
+    waited for (the kernel keeps one maximum over all of them). Under ``nlos fit``, a fresh
+    process, that is the fit's own and its largest rendering process (None when it started none:
+    one worker, or a resumed fit whose people an earlier run rendered); called from a long-lived
+    process (a notebook, the tests) it counts that process's earlier children too. The two measure
+    what ``fit.config.WORKER_BYTES`` sets aside a process."""
     import resource
+    import sys
 
-    mb = lambda who: resource.getrusage(who).ru_maxrss / 1024
+    per_mb = 2 ** 20 if sys.platform == "darwin" else 2 ** 10  # ru_maxrss counts bytes on macOS, kB on Linux
+    mb = lambda who: resource.getrusage(who).ru_maxrss / per_mb
     children = mb(resource.RUSAGE_CHILDREN)
     return {"fit_process": round(mb(resource.RUSAGE_SELF)), "rendering_process": round(children) if children > 0 else None}
 

@@ -99,8 +99,9 @@ def seen_config(rooms: int, seed: int = 0, noise: bool = True, policy: str = "or
 
 CHECKPOINT_SECONDS = 30.0
 """Least wall time between two resumable checkpoints of :func:`train_validated` (a network with its
-optimizer is tens of MB; a short run validates every step): a kill loses at most this much training,
-and the resumed run replays it to the same weights (its random state is in the checkpoint)."""
+optimizer is tens of MB; a short run validates every step). Checkpoints fall on validation steps, so
+a kill loses at most this much training and one validation interval, and the resumed run replays it
+to the same weights (its random state is in the checkpoint)."""
 
 
 def resume_validated(tr: Trainer, out: Path) -> None:

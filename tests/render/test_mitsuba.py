@@ -90,7 +90,7 @@ def test_nlos_matches_mitsuba(kind):
 
 @pytest.mark.parametrize("kind", ["diffuse_corner", "glossy_wall"])
 def test_nlos_shadow_matches_mitsuba(kind):
-    """``nlos_shadow`` against path tracing of a black person minus no person at the same seeds.
+    """``nlos_shadow`` against Mitsuba's particle tracing of a black person minus no person at the same seeds.
 
     Paths that never meet the body are the same in both renders and cancel, so the difference is
     the light the body stops with little noise: about 4% of ``nlos`` in these scenes. Mitsuba's
