@@ -62,12 +62,12 @@ def main() -> None:
           f"{'t_mi[s]':>8s} {'nlos only':>9s}")
     with torch.no_grad():
         for kind in args.scenes.split(","):
-            images = ours_nlos(kind, args.res)
+            images, scene = ours_nlos(kind, args.res), corner_scene(kind, args.res)
             for proto in args.protocols.split(","):
                 ours = images[proto]
                 for seed in (int(v) for v in args.seeds.split(",")):
                     t = time.perf_counter()
-                    ref = mitsuba_nlos(corner_scene(kind, args.res), SPOT_TARGET, args.spp, seed=seed, protocol=proto,
+                    ref = mitsuba_nlos(scene, SPOT_TARGET, args.spp, seed=seed, protocol=proto,
                                        integrator=args.integrator)
                     dt = time.perf_counter() - t
                     rel = ours.sum() / ref.sum() - 1

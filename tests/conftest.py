@@ -192,6 +192,36 @@ def micro_scene(micro_config, tmp_path_factory):
     return scene_dir, load_scene_tensors(scene_dir, [])
 
 
+def _box_mesh(lo, hi) -> tuple[np.ndarray, np.ndarray]:
+    """A closed axis-aligned box as 12 triangles: (8, 3) vertices, (12, 3) faces."""
+    v = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])], float)
+    f = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                  [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    return v, f
+
+
+def _unit_box_crossings(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(clear, crosses) of segments a -> b (N, 3) against the box [-1, 1]^3 by the slab test:
+    ``clear`` the segments between points outside the box that do not graze an edge, ``crosses``
+    whether each meets the box (the closed form a ray engine must agree with on the clear ones)."""
+    d = b - a
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0, t1 = (-1 - a) / d, (1 - a) / d
+    near = np.nanmax(np.minimum(t0, t1), 1).clip(min=0)
+    far = np.nanmin(np.maximum(t0, t1), 1).clip(max=1)
+    outside = (np.abs(a) > 1).any(1) & (np.abs(b) > 1).any(1)
+    return outside & (np.abs(far - near) > 1e-3), near < far
+
+
+@pytest.fixture(scope="session")
+def box():
+    """``box.mesh(lo, hi)``: a closed box's (vertices, faces); ``box.crossings(a, b)``: the slab test's
+    (clear, crosses) of segments against the box [-1, 1]^3 (the ray engines' closed form)."""
+    import types
+
+    return types.SimpleNamespace(mesh=_box_mesh, crossings=_unit_box_crossings)
+
+
 @pytest.fixture(scope="module")
 def one_thread():
     """Tiny images and graphs: on a shared 2-core machine, OpenMP threads that wait for each other

@@ -7,6 +7,7 @@ import dataclasses
 import os
 import json
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -43,6 +44,12 @@ def fitted(room_dir, tmp_path_factory):
     return out, report
 
 
+def _high_water_mb() -> float:
+    """This process's peak resident memory so far by the kernel's own count (``VmHWM``), MB."""
+    status = Path("/proc/self/status").read_text()
+    return int(next(line for line in status.splitlines() if line.startswith("VmHWM:")).split()[1]) / 1024
+
+
 def test_report_matches_its_contract(fitted):
     out, report = fitted
     on_disk = json.loads((out / "report.json").read_text())
@@ -75,7 +82,7 @@ def test_report_matches_its_contract(fitted):
     html = (out / "report.html").read_text()
     assert html.count("data:image/png;base64,") == 4 and "Where to aim the projector" in html
     # the peak memory is this process's high-water mark then (the kernel's VmHWM, read now, cannot be lower)
-    hwm = next(int(line.split()[1]) for line in open("/proc/self/status") if line.startswith("VmHWM:")) / 1024
+    hwm = _high_water_mb()
     mem = on_disk["peak_memory_mb"]
     assert 100 < mem["fit_process"] <= hwm + 1 and f"peak memory: this process {mem['fit_process']:,} MB" in html
 
@@ -334,7 +341,7 @@ def test_peak_memory_counts_the_largest_waited_for_child():
     subprocess.run([sys.executable, "-c", "import numpy as np; a = np.ones(3 * 2 ** 27); assert a.sum() == 3 * 2 ** 27"],
                    check=True)
     mem = peak_memory_mb()
-    hwm = next(int(line.split()[1]) for line in open("/proc/self/status") if line.startswith("VmHWM:")) / 1024
+    hwm = _high_water_mb()
     assert 3072 <= mem["rendering_process"] < 3072 + 400  # the array and an interpreter with numpy
     assert 50 < mem["fit_process"] <= hwm + 1
 

@@ -9,13 +9,11 @@ from nlos_spotlight.render import rays
 from nlos_spotlight.render.rays import RayEngine
 
 
-def test_batches_on_two_threads_answer_as_one_thread_does(monkeypatch):
+def test_batches_on_two_threads_answer_as_one_thread_does(box, monkeypatch):
     """Over ``PARALLEL_MIN`` rays a query is split into slices run on a thread pool (``make test`` runs
     one thread a process, so this path needs its own test): the answers equal one thread's, and a
     segment between points outside a box is blocked iff the slab test says it crosses the box."""
-    v = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-    f = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
-                  [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    v, f = box.mesh([-1, -1, -1], [1, 1, 1])
     monkeypatch.setattr(rays, "PARALLEL_MIN", 1 << 12)  # several slices without millions of rays
     a, b = np.random.default_rng(5).uniform(-3, 3, (40000, 2, 3)).transpose(1, 0, 2)
     engine, threads = RayEngine(v, f), torch.get_num_threads()
@@ -28,9 +26,5 @@ def test_batches_on_two_threads_answer_as_one_thread_does(monkeypatch):
     finally:
         torch.set_num_threads(threads)
     assert np.array_equal(one, two) and 0.2 < one.mean() < 0.9
-    d = b - a
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t0, t1 = (-1 - a) / d, (1 - a) / d
-    near, far = np.nanmax(np.minimum(t0, t1), 1).clip(min=0), np.nanmin(np.maximum(t0, t1), 1).clip(max=1)
-    clear = ((np.abs(a) > 1).any(1) & (np.abs(b) > 1).any(1)) & (np.abs(far - near) > 1e-3)
-    assert np.array_equal(two[clear], (near < far)[clear])
+    clear, crosses = box.crossings(a, b)
+    assert np.array_equal(two[clear], crosses[clear])

@@ -12,40 +12,25 @@ from nlos_spotlight.render.rays import RayEngine, SceneRays, occlusion_engine
 pytestmark = pytest.mark.skipif(not rays_drjit.available("cpu"), reason="Mitsuba 3 (LLVM) not available")
 
 
-def _box(lo, hi):
-    """A closed axis-aligned box as 12 triangles."""
-    v = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])], float)
-    f = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
-                  [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
-    return v, f
-
-
-def test_occlusion_matches_embree_on_random_segments():
+def test_occlusion_matches_embree_on_random_segments(box):
     """Segments between random points in and around two boxes: the same answer from both engines,
     and the closed form (a segment between two points outside a convex box is blocked iff the
     slab test says it crosses it) for the segments that miss the second box."""
-    v1, f1 = _box([-1, -1, -1], [1, 1, 1])
+    v1, f1 = box.mesh([-1, -1, -1], [1, 1, 1])
     rng = np.random.default_rng(3)
     a, b = rng.uniform(-3, 3, (20000, 2, 3)).transpose(1, 0, 2)
     ref = RayEngine(v1, f1).occluded(a, b)
     got = rays_drjit.DrJitRays(v1, f1, "cpu", threads=1).occluded(a, b)
     assert 0.2 < ref.mean() < 0.9  # both outcomes are common
     assert np.mean(got != ref) <= 1e-4
-    outside = (np.abs(a) > 1).any(1) & (np.abs(b) > 1).any(1)
-    d = b - a
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t0, t1 = (-1 - a) / d, (1 - a) / d
-    near = np.nanmax(np.minimum(t0, t1), 1).clip(min=0)
-    far = np.nanmin(np.maximum(t0, t1), 1).clip(max=1)
-    crosses = near < far
-    clear = outside & (np.abs(far - near) > 1e-3)  # not grazing an edge
+    clear, crosses = box.crossings(a, b)
     assert np.array_equal(got[clear], crosses[clear])
 
 
-def test_with_body_sees_both_meshes():
+def test_with_body_sees_both_meshes(box):
     """The room's mesh instanced beside a body blocks what either blocks, as one embreex BVH of both."""
-    v1, f1 = _box([-1, -1, -1], [1, 1, 1])
-    v2, f2 = _box([2, -0.5, -0.5], [3, 0.5, 0.5])
+    v1, f1 = box.mesh([-1, -1, -1], [1, 1, 1])
+    v2, f2 = box.mesh([2, -0.5, -0.5], [3, 0.5, 0.5])
 
     class Body:
         vertices, faces = v2, f2
@@ -77,8 +62,8 @@ def test_renderer_images_equal_with_either_engine(glossy_corner_pair):
     assert float((got - want).norm() / want.norm()) < 1e-4
 
 
-def test_auto_picks_drjit_where_it_runs():
-    v, f = _box([-1, -1, -1], [1, 1, 1])
+def test_auto_picks_drjit_where_it_runs(box):
+    v, f = box.mesh([-1, -1, -1], [1, 1, 1])
     engine = RayEngine(v, f)
     assert isinstance(occlusion_engine(engine, "auto", "cpu"), rays_drjit.DrJitRays)
     assert occlusion_engine(engine, "embree", "cpu") is engine
@@ -102,12 +87,12 @@ def test_torch_kernels_with_drjit_rays_equal_embree(glossy_corner_pair):
     assert float((got - want).norm() / want.norm()) < 1e-4
 
 
-def test_ray_tally_counts_every_query():
+def test_ray_tally_counts_every_query(box):
     """``rays.TALLY`` counts each ray a ``SceneRays`` query tests (the render benchmark's ray budget),
     whichever engine answers it."""
     from nlos_spotlight.render.rays import TALLY
 
-    v1, f1 = _box([-1, -1, -1], [1, 1, 1])
+    v1, f1 = box.mesh([-1, -1, -1], [1, 1, 1])
     rng = np.random.default_rng(5)
     o = rng.uniform(-3, 3, (1000, 3)).astype(np.float32)
     d = rng.normal(size=(1000, 3))
