@@ -38,7 +38,7 @@ def main() -> None:
     comps = ("nlos_shadow", "nlos_bounce")
 
     def render(n: int, offset: float = 0.5, components=comps) -> tuple[dict, float]:
-        rs = dcfg.render_settings(shadow_samples=cfg.shadow_samples, bounce_body_samples=n)
+        rs = dcfg.render_settings(shadow_samples=cfg.shadow.shadow_samples, bounce_body_samples=n)
         builder.rerender(idx[:1], rs, aim, components, [offset])  # the renderer's one-off precompute, untimed
         t0 = time.perf_counter()
         got = builder.rerender(idx, rs, aim, components, [offset] * len(idx))

@@ -52,8 +52,8 @@ def spreads(args, bounce, builder, dcfg, idx, aim, floor, got, lines) -> None:
         bounce.NEAR_FIELD = near
         draws, t0 = [], time.perf_counter()
         for off in (0.5, 0.25):
-            rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=8, footprint_jitter=True,
-                                spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
+            rs = RenderSettings(pixel_samples=dcfg.render.pixel_samples, pixel_footprint=8, footprint_jitter=True,
+                                spot_samples=dcfg.render.spot_samples, person_samples=dcfg.render.person_samples,
                                 shadow_samples=4096, footprint_seed=12345, relay_offset=off, device="cpu")
             draws.append(builder.rerender(idx, rs, aim, ("nlos_bounce",), one_footprint=True)["nlos_bounce"])
         a, b = draws

@@ -41,14 +41,12 @@ def main() -> None:
     torch.set_num_threads(1)
 
     from nlos_spotlight.data import scene_builder as sb
+    from nlos_spotlight.config_file import apply_assignments
     from nlos_spotlight.data.config import load_config
     from nlos_spotlight.data.generate import plan
     from nlos_spotlight.world.body import _default_cache
 
-    base = load_config(args.preset)
-    for item in args.set:
-        key, value = item.split("=", 1)
-        base = dataclasses.replace(base, **{key: type(getattr(base, key))(value)})
+    base = apply_assignments(load_config(args.preset), args.set)
     cfg = dataclasses.replace(base, train_scenes=max(base.train_scenes, args.scene + 1), val_scenes=0, test_scenes=1,
                               samples_per_scene=args.transport + args.images,
                               transport_samples_per_scene=args.transport,

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import torch
 
+from nlos_spotlight.config_file import apply_assignments
 from nlos_spotlight.data.config import load_config
 from nlos_spotlight.data.generate import generate, plan
 from nlos_spotlight.data.scene_builder import SceneBuilder
@@ -34,9 +35,7 @@ def main() -> None:
                     help="override config fields, e.g. person_samples=4000 person_quadrature=faces")
     args = ap.parse_args()
     cfg = dataclasses.replace(load_config(args.preset), train_scenes=args.scenes, val_scenes=0, test_scenes=0)
-    for kv in args.set:
-        k, v = kv.split("=", 1)
-        cfg = dataclasses.replace(cfg, **{k: type(getattr(cfg, k))(v)})
+    cfg = apply_assignments(cfg, args.set)
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         # parts, on the first scene
@@ -57,7 +56,7 @@ def main() -> None:
             fused = time.perf_counter() - t
     n_samples = cfg.train_scenes * cfg.samples_per_scene
     print(f"preset {cfg.name}: {cfg.train_scenes} scenes x {cfg.samples_per_scene} samples at "
-          f"{cfg.person_samples} body samples ({cfg.person_quadrature}), "
+          f"{cfg.render.person_samples} body samples ({cfg.render.person_quadrature}), "
           f"{cfg.resolution}x{cfg.resolution}, LOS mesh {cfg.los_vertices} vertices, "
           f"{torch.get_num_threads()} torch threads")
     print(f"room generation: {t_room:.2f} s per room")

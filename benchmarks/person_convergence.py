@@ -59,8 +59,8 @@ def renderers(cfg, seed: int, max_spots: int):
     aim = los.centroids()
     if 0 < max_spots < len(aim):
         aim = aim[np.linspace(0, len(aim) - 1, max_spots).round().astype(int)]
-    settings = RenderSettings(pixel_samples=cfg.pixel_samples, transport_pixel_samples=cfg.transport_pixel_samples,
-                              spot_samples=cfg.spot_samples, person_samples=cfg.person_samples, device="cpu")
+    settings = RenderSettings(pixel_samples=cfg.render.pixel_samples, transport_pixel_samples=cfg.render.transport_pixel_samples,
+                              spot_samples=cfg.render.spot_samples, person_samples=cfg.render.person_samples, device="cpu")
     r = Renderer(scene, settings, aim_points=aim)
     flash_settings = dataclasses.replace(settings, spot_samples=settings.spot_samples * FLASH_SPOT_SAMPLES)
     flash = Renderer(flash_scene(scene), flash_settings, aim_points=scene.camera.look_at[None])
@@ -112,12 +112,12 @@ def run_preset(name: str, args) -> None:
     xy = person_positions(scene, rng, 1)[0]
     t = np.array([xy[0], xy[1], scene.hidden_region.floor_z])
     base = sample_body_params(rng, "standing")
-    print(f"\n## {name}: {cfg.resolution}x{cfg.resolution}, {r.num_spots} spots x {cfg.spot_samples} rays, "
-          f"transport {cfg.transport_pixel_samples}^2 sub-samples/pixel, body_faces {cfg.body_faces}, "
+    print(f"\n## {name}: {cfg.resolution}x{cfg.resolution}, {r.num_spots} spots x {cfg.render.spot_samples} rays, "
+          f"transport {cfg.render.transport_pixel_samples}^2 sub-samples/pixel, body_faces {cfg.body_faces}, "
           f"person at ({xy[0]:.2f}, {xy[1]:.2f}) facing {base.facing_deg:.0f} deg; "
           f"reference: faces rule at {args.ref_samples} samples", flush=True)
     print(f"{'posture':10s} {'rule':6s} {'n':>6s} {'err F':>8s} {'flash':>8s} {'amb':>8s} {'s/person':>9s}")
-    preset = (cfg.person_quadrature, cfg.person_samples)
+    preset = (cfg.render.person_quadrature, cfg.render.person_samples)
     rows = [("mc", OLD_MC_SAMPLES[name]), preset, *(("faces", n) for n in args.faces_n)]
     rows = list(dict.fromkeys(rows + [("area", max(args.faces_n))] if args.faces_n else rows))
     refs = {}

@@ -38,8 +38,8 @@ def main(argv=None) -> int:
     torch.set_num_threads(1)
     cfg, aim, builder, dcfg = finished_model(args.model)
     idx = list(range(cfg.transport_people, cfg.transport_people + args.people))
-    base = RenderSettings(pixel_samples=dcfg.pixel_samples, transport_pixel_samples=1, spot_samples=dcfg.spot_samples,
-                          person_samples=dcfg.person_samples, device="cpu")
+    base = RenderSettings(pixel_samples=dcfg.render.pixel_samples, transport_pixel_samples=1, spot_samples=dcfg.render.spot_samples,
+                          person_samples=dcfg.render.person_samples, device="cpu")
     builder.rerender(idx[:1], base, aim, ("nlos",))  # compile the loops before timing
 
     def run(term, seed=None, **kw):
@@ -54,10 +54,10 @@ def main(argv=None) -> int:
     brute = {n: run("nlos", transport_pixel_samples=n) for n in (1, 2, 4, 8)}
     ref = brute[8][0]
     for n, (img, s) in brute.items():
-        rows.append(("nlos", "brute", n, dcfg.person_samples, s, rel(img, ref), 0.0))
+        rows.append(("nlos", "brute", n, dcfg.render.person_samples, s, rel(img, ref), 0.0))
     for n in (8, 16):
         (a, s), (b, _) = (run("nlos", seed, pixel_footprint=n) for seed in (1, 2))
-        rows.append(("nlos", "footprint", n, dcfg.person_samples, s, rel(a, ref),
+        rows.append(("nlos", "footprint", n, dcfg.render.person_samples, s, rel(a, ref),
                      rel((a - b) / np.sqrt(2) + ref, ref)))
     sh_ref, _ = run("nlos_shadow", transport_pixel_samples=2, shadow_samples=2 * 4096)
     for m in (4096, 2 * 4096):

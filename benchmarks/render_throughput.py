@@ -133,11 +133,11 @@ def _renderer(room_dir: str, dcfg, spots, shadow: bool, device: str = "cpu", ray
     surfaces = StaticSurfaces(scene)
     los = los_mesh(surfaces.mesh, surfaces.engine, scene.camera, dcfg.los_vertices)
     fc = FitConfig()
-    settings = dcfg.render_settings(device=device, rays=rays, shadow_samples=fc.shadow_samples)
+    settings = dcfg.render_settings(device=device, rays=rays, shadow_samples=fc.shadow.shadow_samples)
     if shadow:
         from nlos_spotlight.fit.shadow import components
 
-        settings = dataclasses.replace(settings, bounce_body_samples=fc.bounce_body_samples, shadow_depth=fc.shadow_depth)
+        settings = dataclasses.replace(settings, bounce_body_samples=fc.shadow.bounce_body_samples, shadow_depth=fc.shadow.shadow_depth)
         r = Renderer(scene, settings, aim_points=los.centroids()[spots[:1]])
         y, comps = r.spot_vector(0), components(fc)
         return r, lambda person, tr, offset=0.25: r.render(y, person, torch.as_tensor(tr), comps, relay_offset=offset)
@@ -302,7 +302,7 @@ def main() -> None:
         spots = np.linspace(0, len(los.faces) - 1, 10).round().astype(int).tolist()  # K = 10 spread candidates
         nsamp = int(np.mean([len(p) for p, _ in ppl]))
         print(f"room {args.config}: {len(los.faces)} candidates, K = {len(spots)} spots, {dcfg.resolution}x{dcfg.resolution}, "
-              f"footprint {dcfg.pixel_footprint}, {nsamp} body samples a person (mean), {args.people} people a process")
+              f"footprint {dcfg.render.pixel_footprint}, {nsamp} body samples a person (mean), {args.people} people a process")
         rows, extra = [], []
         for n in cores:
             runs = {k: [] for k in paths}

@@ -133,7 +133,7 @@ def load_room(name: str, reading: str, path: Path, people: int) -> Room:
     from nlos_spotlight.data.tensors import load_split
 
     s, = load_split(path / "data", "train", ["normals"], samples="images")  # as room_split reads it
-    if cfg.shadow_samples > 0:  # the model's people hold the light their bodies block
+    if cfg.shadow.shadow_samples > 0:  # the model's people hold the light their bodies block
         from nlos_spotlight.fit.train import with_shadow
 
         s = with_shadow(s, path, cfg, int(rep["spot"]["face"]))
@@ -189,18 +189,18 @@ def fit_reproduction(room: Room, cache: Path) -> dict[str, np.ndarray]:
     from nlos_spotlight.data.store import atomic_npz
 
     cfg = fit_config(room.path)
-    jit = "j" if cfg.footprint_jitter else ""
-    path = cache / room.name / f"fit-{len(room.indices)}-f{cfg.pixel_footprint}{jit}-s{cfg.shadow_samples}.npz"
+    jit = "j" if cfg.render.footprint_jitter else ""
+    path = cache / room.name / f"fit-{len(room.indices)}-f{cfg.render.pixel_footprint}{jit}-s{cfg.shadow.shadow_samples}.npz"
     if (got := cached(path, room)) is not None:
         return {k: v for k, v in got.items() if k != "indices"}
     builder, dcfg = room_builder(room.path, cfg)
     base = dcfg.render_settings()
     out = {"fit_nlos": builder.rerender(room.indices[:REPRODUCED], base, room.aim, ("nlos",))["nlos"]}
-    if cfg.shadow_samples > 0:  # the fit's own shadow, only its relay points drawn apart
+    if cfg.shadow.shadow_samples > 0:  # the fit's own shadow, only its relay points drawn apart
         out["relay_shadow"] = builder.rerender(room.indices, dataclasses.replace(
-            base, shadow_samples=cfg.shadow_samples, relay_offset=RELAY_OFFSET), room.aim, ("nlos_shadow",),
+            base, shadow_samples=cfg.shadow.shadow_samples, relay_offset=RELAY_OFFSET), room.aim, ("nlos_shadow",),
             one_footprint=True)["nlos_shadow"]
-    if cfg.pixel_footprint > 0:
+    if cfg.render.pixel_footprint > 0:
         out["offset_nlos"] = builder.rerender(room.indices, dataclasses.replace(base, footprint_seed=CAMERA_SEED),
                                               room.aim, ("nlos",))["nlos"]
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -236,9 +236,9 @@ def world_photographs(room: Room, cache: Path, effect: str, magnitude: float, dr
     builder, dcfg = room_builder(room.path, cfg)
     v = preset("tripod").only(effect).scaled(magnitude)
     world, aim, drawn = mismatched_world(builder.room_scene(), room.aim, v, WORLD_SEED + 1000 * draw)
-    rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=WORLD_FOOTPRINT, footprint_jitter=True,
-                        spot_samples=dcfg.spot_samples,
-                        person_samples=dcfg.person_samples, shadow_samples=4096, footprint_seed=CAMERA_SEED,
+    rs = RenderSettings(pixel_samples=dcfg.render.pixel_samples, pixel_footprint=WORLD_FOOTPRINT, footprint_jitter=True,
+                        spot_samples=dcfg.render.spot_samples,
+                        person_samples=dcfg.render.person_samples, shadow_samples=4096, footprint_seed=CAMERA_SEED,
                         relay_offset=RELAY_OFFSET, device="cpu")
     t0 = time.perf_counter()
     got = builder.rerender(room.indices, rs, aim, ("nlos", "nlos_ambient", "nlos_shadow"), world=world,
@@ -306,8 +306,8 @@ def _camera_draw(room: Room, cache: Path, draw: int, grid: bool = False) -> dict
     if (got := cached(path, room)) is not None:
         return got
     builder, dcfg = room_builder(room.path, fit_config(room.path))
-    rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=n, footprint_jitter=not grid,
-                        spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
+    rs = RenderSettings(pixel_samples=dcfg.render.pixel_samples, pixel_footprint=n, footprint_jitter=not grid,
+                        spot_samples=dcfg.render.spot_samples, person_samples=dcfg.render.person_samples,
                         shadow_samples=CAMERA_SHADOW_SAMPLES, footprint_seed=CAMERA_SEED + 100 * draw,
                         relay_offset=(0.5 + draw * PHI) % 1.0, device="cpu")
     t0 = time.perf_counter()
@@ -343,8 +343,8 @@ def bounce_light(room: Room, cache: Path) -> dict[str, np.ndarray]:
     if (got := cached(path, room)) is not None:
         return {k: v for k, v in got.items() if k != "indices"}
     builder, dcfg = room_builder(room.path, fit_config(room.path))
-    rs = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=CAMERA_FOOTPRINT, footprint_jitter=True,
-                        spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
+    rs = RenderSettings(pixel_samples=dcfg.render.pixel_samples, pixel_footprint=CAMERA_FOOTPRINT, footprint_jitter=True,
+                        spot_samples=dcfg.render.spot_samples, person_samples=dcfg.render.person_samples,
                         shadow_samples=BOUNCE_RELAY, footprint_seed=CAMERA_SEED, relay_offset=0.5, device="cpu")
     t0 = time.perf_counter()
     got = builder.rerender(room.indices, rs, room.aim, ("nlos_bounce",), one_footprint=True)
@@ -368,8 +368,8 @@ def shadow_tail_light(room: Room, cache: Path, depth: int) -> dict[str, np.ndarr
     builder, dcfg = room_builder(room.path, fit_config(room.path))
     t0 = time.perf_counter()
     got = [builder.rerender(room.indices, RenderSettings(
-        pixel_samples=dcfg.pixel_samples, pixel_footprint=CAMERA_FOOTPRINT, footprint_jitter=True,
-        spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples, shadow_samples=BOUNCE_RELAY,
+        pixel_samples=dcfg.render.pixel_samples, pixel_footprint=CAMERA_FOOTPRINT, footprint_jitter=True,
+        spot_samples=dcfg.render.spot_samples, person_samples=dcfg.render.person_samples, shadow_samples=BOUNCE_RELAY,
         shadow_depth=d, footprint_seed=CAMERA_SEED, relay_offset=0.5, device="cpu"), room.aim, ("nlos_shadow",),
         one_footprint=True)["nlos_shadow"] for d in (4, depth)]
     out = {"shadow_tail": got[1] - got[0], "shadow_tail_seconds": np.float64(time.perf_counter() - t0)}

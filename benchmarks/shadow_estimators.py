@@ -49,8 +49,8 @@ def main(argv=None) -> int:
     torch.set_num_threads(1)
     cfg, aim, builder, dcfg = finished_model(args.model)
     people = [int(p) for p in args.people.split(",")]
-    base = RenderSettings(pixel_samples=dcfg.pixel_samples, spot_samples=dcfg.spot_samples,
-                          person_samples=dcfg.person_samples, device="cpu")
+    base = RenderSettings(pixel_samples=dcfg.render.pixel_samples, spot_samples=dcfg.render.spot_samples,
+                          person_samples=dcfg.render.person_samples, device="cpu")
     got, seconds = {}, {}
     for name, (f, m, n) in SETTINGS.items():
         t0 = time.perf_counter()

@@ -240,14 +240,15 @@ def cmd_spotlight(args: argparse.Namespace) -> None:
 
 
 def cmd_fit(args: argparse.Namespace) -> None:
-    from .config_file import apply_fields
-    from .fit.config import PRESETS
+    from .config_file import apply_fields, flatten
+    from .fit.config import PRESETS, FitConfig
     from .fit.run import fit_room
 
     if args.preset not in PRESETS:
         raise NlosError(f"--preset: expected one of {', '.join(PRESETS)}, got {args.preset!r}")
     base = PRESETS[args.preset]
     given = _config_file(args) if args.config else {}  # the file's fit settings; flags win over them
+    given = flatten(FitConfig, given)  # its sampling blocks by field, as the flags name them
     if args.room is None:
         raise NlosError("fit: give the room (a scan or scene directory) or --config ROOM.yaml with a room")
     flags = _fit_flags(args)
@@ -261,7 +262,7 @@ def cmd_fit(args: argparse.Namespace) -> None:
         if k in flags and not bounce:
             raise NlosError(f"--{k.replace('_', '-')} {flags[k]:g} sets the bounce, which this fit leaves out "
                             f"(--bounce off{', or a method without a spot' if settings.get('method') not in (None, 'ours') else ''})")
-    cfg = apply_fields(base, settings, args.config or "nlos fit", "fit." if args.config else "")
+    cfg = apply_fields(base, settings, args.config or "nlos fit", "fit." if args.config else "")  # flat names nest
     places = {k: getattr(args, k) for k in ("camera_position", "camera_look_at", "projector_position")
               if getattr(args, k) is not None}
     places = {k: _point(v, "--" + k.replace("_", "-")).tolist() for k, v in places.items()}

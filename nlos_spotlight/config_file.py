@@ -81,7 +81,8 @@ def _yaml_mapping(path: Path) -> dict:
 def apply_fields(cfg, values: dict, where: str, prefix: str = ""):
     """A copy of dataclass ``cfg`` with ``values`` set, each checked against the field's current
     type (an int is a float; a bool is only a bool); nested configs take a mapping of their own
-    fields, dict fields are merged."""
+    fields (or those fields by their own names, :func:`nest`), dict fields are merged."""
+    values = nest(type(cfg), values, where, prefix)
     fields = {f.name for f in dataclasses.fields(cfg)}
     changes = {}
     for k, v in values.items():
@@ -113,4 +114,71 @@ def apply_fields(cfg, values: dict, where: str, prefix: str = ""):
         raise NlosError(f"{where}: {exc}") from None
 
 
-__all__ = ["apply_fields", "load_config_file"]
+def apply_assignments(cfg, items: list[str], where: str = "--set"):
+    """``FIELD=VALUE`` strings (each value read as YAML, e.g. ``person_samples=4000``) applied with
+    :func:`apply_fields`: the benchmarks' ``--set``."""
+    import yaml
+
+    values = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise NlosError(f"{where}: expected FIELD=VALUE, got {item!r}")
+        try:
+            values[key] = yaml.safe_load(value)
+        except yaml.YAMLError:
+            raise NlosError(f"{where}: {key}: unreadable value {value!r}") from None
+    return apply_fields(cfg, values, where)
+
+
+def blocks(cls) -> dict[str, type]:
+    """The nested config blocks of dataclass ``cls``: field name -> its dataclass (e.g. ``render`` ->
+    ``ImageSampling``), read from each field's default."""
+    out = {}
+    for f in dataclasses.fields(cls):
+        default = f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default
+        if dataclasses.is_dataclass(default):
+            out[f.name] = type(default)
+    return out
+
+
+def nest(cls, values: dict, where: str = "config", prefix: str = "") -> dict:
+    """``values`` with every key that names a field of one of ``cls``'s blocks moved into that
+    block's mapping: a record written before the blocks (flat), or the command line's flags, read
+    as the nested config. A field given both ways is refused in one line."""
+    owner = {name: block for block, kind in blocks(cls).items() for name in (f.name for f in dataclasses.fields(kind))}
+    out = {k: (dict(v) if k in owner.values() and isinstance(v, dict) else v) for k, v in values.items()
+           if k not in owner or k in {f.name for f in dataclasses.fields(cls)}}
+    for k, v in values.items():
+        if k in owner and k not in out:
+            block = out.setdefault(owner[k], {})
+            if not isinstance(block, dict):  # reported as the block's own type error
+                break
+            if k in block:
+                raise NlosError(f"{where}: {prefix}{k} given twice (on its own and under {prefix}{owner[k]})")
+            block[k] = v
+    return out
+
+
+def with_fields(cfg, **changes):
+    """``dataclasses.replace`` taking a block's fields by their own names too (``with_fields(fit,
+    shadow_samples=0)`` for ``fit.shadow.shadow_samples``), the rest of each block kept."""
+    changes = nest(type(cfg), changes)
+    for k in blocks(type(cfg)):
+        if isinstance(changes.get(k), dict):
+            changes[k] = dataclasses.replace(getattr(cfg, k), **changes[k])
+    return dataclasses.replace(cfg, **changes)
+
+
+def flatten(cls, values: dict) -> dict:
+    """The inverse of :func:`nest`: ``cls``'s blocks' fields lifted to the top (their names are
+    unique), as settings are compared (a resumed fit, reused people, a dataset's config)."""
+    kinds = blocks(cls)
+    out = {k: v for k, v in values.items() if not (k in kinds and isinstance(v, dict))}
+    for k in kinds:
+        if isinstance(values.get(k), dict):
+            out.update(values[k])
+    return out
+
+
+__all__ = ["apply_assignments", "apply_fields", "blocks", "flatten", "load_config_file", "nest", "with_fields"]

@@ -41,8 +41,9 @@ TOY_BEST = 5
 """The toy world's best candidate spot."""
 MICRO = dict(name="micro", seed=3, train_scenes=2, val_scenes=0, test_scenes=1, samples_per_scene=3,
              trajectories_per_test_scene=1, trajectory_frames=3, resolution=12, los_vertices=40,
-             transport_rank=8, body_faces=600, pixel_samples=1, transport_pixel_samples=1, spot_samples=4,
-             person_samples=48, person_quadrature="mc")
+             transport_rank=8, body_faces=600,
+             render=dict(pixel_samples=1, transport_pixel_samples=1, spot_samples=4, person_samples=48,
+                         person_quadrature="mc"))
 """The micro dataset (seconds to generate) of the generation and policy tests."""
 
 

@@ -96,11 +96,11 @@ def test_fit_config_file_is_the_flags(tmp_path, monkeypatch, capsys):
         assert main(["fit", "--config", str(tmp_path / "cfg" / "flash.yaml"), "--out", str(tmp_path / "h"),
                      "--preset", "tiny", "--quiet", *extra]) == 0, extra
         got = seen[-1][1]
-        assert (got.method, got.policy, got.bounce, got.shadow_samples, got.capture_preset) == \
+        assert (got.method, got.policy, got.bounce, got.shadow.shadow_samples, got.capture_preset) == \
             ("tancik", "flash", False, 0, "ideal")
     assert main(["fit", "--config", str(tmp_path / "cfg" / "room.yaml"), "--out", str(tmp_path / "f"),
                  "--preset", "tiny", "--quiet", "--bounce-body-samples", "0"]) == 0
-    assert seen[-1][1].bounce_body_samples == 0 and seen[-1][1].bounce
+    assert seen[-1][1].shadow.bounce_body_samples == 0 and seen[-1][1].bounce
     for text, match in (("camera_position: [1, 2]\n", "list of 3 numbers"), ("fit: {peeple: 3}\n", "unknown key"),
                         ("color: red\n", "unknown key 'color'"), ("fit: 3\n", "fit must be a mapping")):
         (tmp_path / "bad.yaml").write_text("room: x.ply\n" + text)
@@ -108,3 +108,65 @@ def test_fit_config_file_is_the_flags(tmp_path, monkeypatch, capsys):
         assert main(["fit", "--config", str(tmp_path / "bad.yaml"), "--out", str(tmp_path / "d"), "--quiet"]) == 2
         err = capsys.readouterr().err
         assert err.startswith("error: ") and err.count("\n") == 1 and match in err, err
+
+
+def test_render_knobs_are_one_nested_block(tmp_path):
+    """The render knobs are declared once (``render.settings.ImageSampling``, ``ShadowSampling``)
+    and nested as ``render`` (and a fit's ``shadow``) in the dataset and fit configs: a YAML block
+    merges over the preset's; the flat names (the flags', and every record written before the
+    blocks) read as the same config; a field given both ways is refused; the renderer's settings
+    carry the block."""
+    import json
+
+    from nlos_spotlight.config_file import apply_assignments, flatten, with_fields
+    from nlos_spotlight.data.config import DatasetConfig, read_dataset_config
+    from nlos_spotlight.fit.config import FitConfig
+
+    f = tmp_path / "d.yaml"
+    f.write_text("base: small\nrender:\n  person_samples: 900\n")
+    nested = load_config(str(f))
+    small = DATA_PRESETS["small"].render
+    assert nested.render.person_samples == 900 and nested.render.spot_samples == small.spot_samples == 16
+    f.write_text("base: small\nperson_samples: 900\n")
+    assert load_config(str(f)) == nested
+    assert apply_assignments(dataclasses.replace(DATA_PRESETS["small"], name="d"), ["person_samples=900"]) == nested
+    for text, match in (("person_samples: 9\nrender:\n  person_samples: 8\n", "person_samples given twice"),
+                        ("render:\n  person_samples: many\n", "render.person_samples must be int"),
+                        ("render:\n  colour: 1\n", "unknown key 'render.colour'"),
+                        ("render: 3\n", "render must be a mapping"),
+                        ("render:\n  person_samples: 0\n", "render.person_samples must be at least 1")):
+        f.write_text(text)
+        with pytest.raises(NlosError, match=match) as e:
+            load_config(str(f))
+        assert "\n" not in str(e.value)
+    with pytest.raises(NlosError, match="expected FIELD=VALUE"):
+        apply_assignments(nested, ["person_samples"])
+    # a dataset's config.json: flat (before the block) and nested read as the same config
+    data = tmp_path / "data"
+    data.mkdir()
+    flat = flatten(DatasetConfig, nested.to_dict())
+    assert "render" not in flat and flat["person_samples"] == 900
+    for record in (flat, nested.to_dict()):
+        (data / "config.json").write_text(json.dumps(record))
+        assert read_dataset_config(data) == nested
+    old = {k: v for k, v in flat.items() if k not in ("footprint_jitter", "person_quadrature")}  # older still
+    (data / "config.json").write_text(json.dumps(old))
+    assert read_dataset_config(data) == nested
+    for text in ("{", json.dumps({**flat, "render": {"colour": 1}})):
+        (data / "config.json").write_text(text)
+        with pytest.raises(NlosError, match="unreadable dataset config"):
+            read_dataset_config(data)
+    rs = nested.render_settings()
+    assert rs.device == "cpu" and all(getattr(rs, k) == v for k, v in dataclasses.asdict(nested.render).items())
+    # a fit: the flags' flat names set the blocks' fields, the rest of each block kept; its record
+    # (nested) and a record before the blocks (flat) give the same config
+    fit = with_fields(FitConfig(), person_samples=700, shadow_samples=1024, people=50)
+    default = FitConfig()
+    assert (fit.render.person_samples, fit.shadow.shadow_samples, fit.people) == (700, 1024, 50)
+    assert (fit.render.pixel_footprint, fit.shadow.shadow_depth) == (default.render.pixel_footprint,
+                                                                     default.shadow.shadow_depth)
+    assert FitConfig.from_record(fit.to_dict()) == fit == FitConfig.from_record(flatten(FitConfig, fit.to_dict()))
+    assert FitConfig(render={"person_samples": 700}).render == fit.render  # a mapping: over the fit's defaults
+    with pytest.raises(NlosError, match="fit: shadow:") as e:
+        FitConfig(shadow={"shadow_sample": 3})
+    assert "\n" not in str(e.value)

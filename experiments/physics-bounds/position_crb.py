@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from nlos_spotlight.data.config import DatasetConfig
+from nlos_spotlight.data.config import read_dataset_config
 from nlos_spotlight.data.generate import plan
 from nlos_spotlight.evaluate.crb import position_crb
 from nlos_spotlight.evaluate.dataset_people import room_renderer, seen_test_specs
@@ -50,7 +50,7 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     data = Path(args.data)
-    cfg = DatasetConfig(**json.loads((data / "config.json").read_text()))
+    cfg = read_dataset_config(data)
     spots = policy_spots(Path(args.runs))
     if not spots:
         raise SystemExit(f"error: no default-capture runs with result.json under {args.runs}")
@@ -62,8 +62,8 @@ def main() -> None:
         sensor = SensorConfig.at(r.shape)
         for spec in seen_test_specs(cfg, p, b, scene, args.people):
             body = posed_body(spec["params"], target_faces=cfg.body_faces)
-            person = Person.from_mesh(body, spec["params"].albedo, cfg.person_samples,
-                                      getattr(cfg, "person_quadrature", "mc"))
+            person = Person.from_mesh(body, spec["params"].albedo, cfg.render.person_samples,
+                                      cfg.render.person_quadrature)
             t = np.array([*spec["position"], scene.hidden_region.floor_z])
             for policy, s in spots.items():
                 if s[i] < 0:

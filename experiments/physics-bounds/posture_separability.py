@@ -45,7 +45,7 @@ import numpy as np
 import torch
 from scipy.stats import norm
 
-from nlos_spotlight.data.config import DatasetConfig
+from nlos_spotlight.data.config import DatasetConfig, read_dataset_config
 from nlos_spotlight.data.generate import plan
 from nlos_spotlight.evaluate.crb import PERSON
 from nlos_spotlight.evaluate.dataset_people import room_renderer, seen_test_specs, static_specs
@@ -61,7 +61,7 @@ from nlos_spotlight.world.body import POSTURES, posed_body
 def light(r: Renderer, y: torch.Tensor, params, t: np.ndarray, cfg: DatasetConfig) -> torch.Tensor:
     """(H, W, 3) the person's light (the image terms that depend on the person), radiance units."""
     body = posed_body(params, target_faces=cfg.body_faces)
-    person = Person.from_mesh(body, params.albedo, cfg.person_samples, cfg.person_quadrature)
+    person = Person.from_mesh(body, params.albedo, cfg.render.person_samples, cfg.render.person_quadrature)
     return r.render(y, person, translation=t, components=PERSON).image.double()
 
 
@@ -108,7 +108,7 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     data = Path(args.data)
-    cfg = DatasetConfig(**json.loads((data / "config.json").read_text()))
+    cfg = read_dataset_config(data)
     rooms = [p for p in plan(cfg) if p.split == args.split]
     rooms = rooms[:args.rooms] if args.rooms else rooms
     pairs = list(itertools.combinations(POSTURES, 2)) + [(p, p) for p in POSTURES]

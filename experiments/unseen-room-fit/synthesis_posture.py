@@ -56,7 +56,6 @@ from __future__ import annotations
 import argparse
 import csv
 import dataclasses
-import json
 import time
 from pathlib import Path
 
@@ -128,12 +127,12 @@ def fit_places(runs: Path | None, room: str, variant: str, test, specs: list[dic
 
 def static_specs(data: Path, room: str) -> tuple[list[dict], object]:
     """The room's static test people's specs (as generated) and its plan entry."""
-    from nlos_spotlight.data.config import DatasetConfig
+    from nlos_spotlight.data.config import read_dataset_config
     from nlos_spotlight.data.generate import plan
     from nlos_spotlight.data.scene_builder import SceneBuilder
     from nlos_spotlight.world.rooms import generate_room
 
-    cfg = DatasetConfig(**json.loads((data / "config.json").read_text()))
+    cfg = read_dataset_config(data)
     p = next((q for q in plan(cfg) if q.id == room), None)
     if p is None:
         raise SystemExit(f"{data}: no room {room} in its plan")
@@ -168,16 +167,16 @@ def photographs(test, face: int, frames: int, seed: int):
 def room_synthesizer(room: Path, cfg, face: int, faces: int | None = None) -> Synthesizer:
     """The room's scan (its directory's meshes, as a user's scan) under candidate spot ``face``;
     ``faces``: a coarser body (as many samples on it) for the search, else the test people's own."""
-    from nlos_spotlight.render.transport import RenderSettings
     from nlos_spotlight.scene.io import load_scene
     from nlos_spotlight.world.body import posed_body
 
     scene = load_scene(room)
     scene.human = None
-    settings = RenderSettings(pixel_samples=cfg.pixel_samples, transport_pixel_samples=cfg.transport_pixel_samples,
-                              spot_samples=cfg.spot_samples, person_samples=faces or cfg.person_samples, device="cpu")
+    # the dataset's sampling without its footprint (the study's recipe)
+    settings = cfg.render_settings(person_samples=faces or cfg.render.person_samples, pixel_footprint=0,
+                                   footprint_jitter=False)
     return Synthesizer(scene, read_static(room, "aim_points")["aim_points"][face], settings, faces or cfg.body_faces,
-                       cfg.person_quadrature, pose=lambda params, n: posed_body(params, target_faces=n))
+                       cfg.render.person_quadrature, pose=lambda params, n: posed_body(params, target_faces=n))
 
 
 def candidates(spec: dict, know: str, variants: int) -> dict[str, list]:

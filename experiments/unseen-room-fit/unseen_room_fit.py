@@ -63,6 +63,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from nlos_spotlight.data.config import read_dataset_config
 from nlos_spotlight.data.static import read_static
 from nlos_spotlight.data.store import atomic_csv
 from nlos_spotlight.errors import NlosError
@@ -74,17 +75,16 @@ COLUMNS = ["room", "variant", "spot", "people", "posture_accuracy", "posture3_ac
            "test_people", "render_s", "train_s"]
 
 
-def room_dataset(test_cfg: dict, room: Path, people: int, transport: int, seed: int, extra_spots=()):
-    """One training room built on the test room's scene, with the test set's render settings
-    (``extra_spots``: candidates its image samples store besides its own choice)."""
+def room_dataset(test_cfg, room: Path, people: int, transport: int, seed: int, extra_spots=()):
+    """One training room built on the test room's scene, with the test set's (``DatasetConfig``)
+    render settings (``extra_spots``: candidates its image samples store besides its own choice)."""
     from nlos_spotlight.data.config import DatasetConfig
 
-    keep = ("resolution", "los_vertices", "body_faces", "person_samples", "person_quadrature", "pixel_samples",
-            "spot_samples", "transport_pixel_samples", "transport_rank", "stored_spots_top")
+    keep = ("resolution", "los_vertices", "body_faces", "render", "transport_rank", "stored_spots_top")
     return DatasetConfig(name="room-fit", seed=seed, train_scenes=1, val_scenes=0, test_scenes=0,
                          samples_per_scene=people, transport_samples_per_scene=transport,
                          trajectories_per_test_scene=0, trajectories_per_train_scene=0, room=str(room.resolve()),
-                         extra_spots=list(extra_spots), **{k: test_cfg[k] for k in keep if k in test_cfg})
+                         extra_spots=list(extra_spots), **{k: getattr(test_cfg, k) for k in keep})
 
 
 def later_render_spots(first: Path, later: Path) -> list[int]:
@@ -116,7 +116,7 @@ def scored_rooms(rows: dict) -> set[str]:
     return {r for r, kind in rows if kind == "heldout"}
 
 
-def fit_room(args, i: int, room: Path, test_cfg: dict, rows: list[dict], write) -> None:
+def fit_room(args, i: int, room: Path, test_cfg, rows: list[dict], write) -> None:
     """Render the room's simulated people, then one network per variant; each variant's rows are
     appended to ``rows`` and written (``write``) as soon as it is scored."""
     from nlos_spotlight.data.generate import generate
@@ -295,7 +295,7 @@ def main() -> None:
 
     for spec in args.variants:
         parse_variant(spec)
-    test_cfg = json.loads((args.test / "config.json").read_text())
+    test_cfg = read_dataset_config(args.test)
     rooms = [args.test / "scenes" / scene_id("test", i) for i in range(args.first, args.first + (args.rooms or 6))]
     for room in rooms:  # by index, so that workers on disjoint rooms can start before all are generated
         if not (room / "done.json").exists():

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import NlosError
+from ..render.settings import DATASET_SAMPLING, ImageSampling
 
 
 @dataclass
@@ -45,22 +46,9 @@ class DatasetConfig:
     """Rank of the stored per-sample transport matrix F (0 stores it in full)."""
     body_faces: int = 1500
     """Target face count of decimated bodies."""
-    pixel_samples: int = 2
-    """Renderer: n x n sub-samples per pixel for the per-scene terms."""
-    transport_pixel_samples: int = 1
-    """Renderer: n x n sub-samples per pixel for the person terms."""
-    pixel_footprint: int = 0
-    """Renderer: n > 0 integrates the person terms over each pixel's footprint from n x n sub-samples
-    sharing out the body samples (``RenderSettings.pixel_footprint``), instead of the above."""
-    footprint_jitter: bool = False
-    """Renderer: footprint sub-samples jittered in their cells (``RenderSettings.footprint_jitter``),
-    a draw per set of people (:func:`footprint_draw`), so that no fixed sampling pattern is learned."""
-    spot_samples: int = 16
-    """Renderer: projector rays per candidate spot."""
-    person_samples: int = 3500
-    """Renderer: body samples (faces rule on 1500 faces: n 1500 -> ~2100 samples, <= 0.8% error; 3500: <= 0.5%)."""
-    person_quadrature: str = "faces"
-    """Renderer: body sampling rule, 'faces' (per-face centroid rule, >= 1 sample a face) or 'mc' (render/person.py)."""
+    render: ImageSampling = field(default_factory=lambda: dataclasses.replace(DATASET_SAMPLING))
+    """How the people's photographs are sampled (``render.settings.ImageSampling``; YAML: a
+    ``render:`` mapping of its fields over the preset's)."""
     families: list[str] = field(default_factory=list)
     """Room layout families to cycle through (empty: all)."""
     extra_spots: list[int] = field(default_factory=list)
@@ -69,6 +57,13 @@ class DatasetConfig:
     """An nlos-scene/1 directory every scene is built on instead of a procedural room (``nlos fit``:
     a user's room; its people differ per scene), relative to the dataset directory unless absolute;
     empty: procedural rooms."""
+
+    def __post_init__(self) -> None:
+        if isinstance(self.render, dict):  # a record's mapping of the block's fields, over the default
+            try:
+                self.render = dataclasses.replace(DATASET_SAMPLING, **self.render)
+            except (TypeError, ValueError) as exc:
+                raise NlosError(f"config: render: {exc}") from None
 
     @property
     def num_scenes(self) -> int:
@@ -82,17 +77,35 @@ class DatasetConfig:
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 
+    @classmethod
+    def from_dict(cls, d: dict) -> "DatasetConfig":
+        """The config a dataset's ``config.json`` (or manifest) records, nested or in the flat form
+        of datasets made before the ``render`` block (``config_file.nest``)."""
+        from ..config_file import nest
+
+        return cls(**nest(cls, d))
+
     def render_settings(self, **overrides):
-        """The renderer's settings of this dataset's people (``render.settings.RenderSettings``: the
-        sampling fields of this config), with ``overrides`` (execution: ``device``, ``fuse``, ``rays``;
-        or the shadow's ``shadow_samples``); the one place those fields pass from config to renderer."""
+        """The renderer's settings of this dataset's people (``render.settings.RenderSettings`` of the
+        ``render`` block, on the CPU), with ``overrides`` (execution: ``device``, ``fuse``, ``rays``;
+        or a shadow's ``shadow_samples``)."""
         from ..render.settings import RenderSettings
 
-        own = dict(pixel_samples=self.pixel_samples, transport_pixel_samples=self.transport_pixel_samples,
-                   pixel_footprint=self.pixel_footprint, footprint_jitter=self.footprint_jitter,
-                   spot_samples=self.spot_samples,
-                   person_samples=self.person_samples, device="cpu")
-        return RenderSettings(**{**own, **overrides})
+        return RenderSettings.of(self.render, **{"device": "cpu", **overrides})
+
+
+def read_dataset_config(data: Path) -> DatasetConfig:
+    """The config a dataset directory records (``config.json``, flat or nested: ``from_dict``), or
+    a one-line ``NlosError``: the one reader of a dataset's config."""
+    import json
+
+    path = Path(data) / "config.json"
+    try:
+        return DatasetConfig.from_dict(json.loads(path.read_text()))
+    except FileNotFoundError:
+        raise NlosError(f"{data}: not a dataset (no config.json; make one with nlos generate)") from None
+    except (OSError, ValueError, TypeError, AttributeError, NlosError) as exc:
+        raise NlosError(f"{path}: unreadable dataset config ({type(exc).__name__})") from None
 
 
 SET_BLOCK = 100
@@ -110,31 +123,31 @@ def sampling_set(k: int) -> int:
 
 def footprint_draw(cfg: "DatasetConfig", k: int) -> int | None:
     """The footprint draw sample ``k``'s person terms are rendered with (``Renderer.use_footprint``):
-    its sampling set when ``footprint_jitter``, else None (the renderer's one fixed set)."""
-    return sampling_set(k) if cfg.footprint_jitter and cfg.pixel_footprint > 0 else None
+    its sampling set when ``render.footprint_jitter``, else None (the renderer's one fixed set)."""
+    return sampling_set(k) if cfg.render.footprint_jitter and cfg.render.pixel_footprint > 0 else None
 
 
 PRESETS = {
     # the body light of every preset is within 0.5% of a converged render (faces rule, 3500 -> ~3850
     # samples: worst of six postures 0.42% at these settings; benchmarks/person_convergence.py)
-    "tiny": DatasetConfig(person_samples=3500),
+    "tiny": DatasetConfig(),
     # make demo's 20-minute budget: ~0.7 s per full-transport person at these settings
     "demo": DatasetConfig(name="demo", train_scenes=10, val_scenes=0, test_scenes=3, samples_per_scene=16,
                           trajectories_per_test_scene=1, trajectories_per_train_scene=1, trajectory_frames=12,
-                          resolution=32, los_vertices=120, person_samples=3500),
+                          resolution=32, los_vertices=120),
     # make demo's seen room: one room, its people by the hundred as image samples (learning that works)
     "demo-room": DatasetConfig(name="demo-room", train_scenes=1, val_scenes=0, test_scenes=0, samples_per_scene=1000,
                                transport_samples_per_scene=8, trajectories_per_test_scene=0,
-                               trajectories_per_train_scene=0, resolution=32, los_vertices=200,
-                               person_samples=3500),
+                               trajectories_per_train_scene=0, resolution=32, los_vertices=200),
     "small": DatasetConfig(name="small", train_scenes=16, val_scenes=4, test_scenes=6, samples_per_scene=36,
                            trajectories_per_test_scene=2, trajectories_per_train_scene=1, trajectory_frames=30,
-                           resolution=32, los_vertices=300, person_samples=4000),  # <= 0.5% from converged
+                           resolution=32, los_vertices=300,
+                           render=dataclasses.replace(DATASET_SAMPLING, person_samples=4000)),  # <= 0.5% from converged
     "paper": DatasetConfig(name="paper", train_scenes=300, val_scenes=30, test_scenes=60, samples_per_scene=120,
                            trajectories_per_test_scene=4, trajectories_per_train_scene=1, trajectory_frames=60,
                            resolution=64, los_vertices=800,
-                           transport_rank=96, pixel_samples=4, transport_pixel_samples=2, spot_samples=32,
-                           person_samples=4000),
+                           transport_rank=96, render=ImageSampling(pixel_samples=4, transport_pixel_samples=2,
+                                                                   spot_samples=32, person_samples=4000)),
 }
 
 
@@ -161,10 +174,12 @@ def validate(cfg: DatasetConfig, where: str) -> None:
         raise NlosError(f"{where}: frame_rate_hz must be a positive number below 10000, got {cfg.frame_rate_hz}")
     if cfg.train_scenes < 0 or cfg.num_scenes < 1:  # 0 training rooms: a test set for models trained elsewhere
         raise NlosError(f"{where}: train_scenes must be at least 0 and the dataset hold at least one scene")
-    for k in ("samples_per_scene", "resolution", "los_vertices", "spot_samples",
-              "person_samples", "pixel_samples", "transport_pixel_samples", "body_faces"):
+    for k in ("samples_per_scene", "resolution", "los_vertices", "body_faces"):
         if getattr(cfg, k) < 1:
             raise NlosError(f"{where}: {k} must be at least 1")
+    for k in ("spot_samples", "person_samples", "pixel_samples", "transport_pixel_samples"):
+        if getattr(cfg.render, k) < 1:
+            raise NlosError(f"{where}: render.{k} must be at least 1")
     if cfg.resolution > 1024 or cfg.samples_per_scene > 100000 or cfg.num_scenes > 1000000:
         raise NlosError(f"{where}: absurd size (resolution {cfg.resolution}, {cfg.num_scenes} scenes)")
     if cfg.los_vertices < 8:
@@ -173,12 +188,12 @@ def validate(cfg: DatasetConfig, where: str) -> None:
         raise NlosError(f"{where}: transport_samples_per_scene must be -1 (all) or at least 1")
     from ..render.person import QUADRATURES
 
-    if cfg.person_quadrature not in QUADRATURES:
-        raise NlosError(f"{where}: person_quadrature must be one of {', '.join(QUADRATURES)}")
+    if cfg.render.person_quadrature not in QUADRATURES:
+        raise NlosError(f"{where}: render.person_quadrature must be one of {', '.join(QUADRATURES)}")
     if cfg.stored_spots_top < 0:
         raise NlosError(f"{where}: stored_spots_top must be at least 0")
-    if not 0 <= cfg.pixel_footprint <= 64:
-        raise NlosError(f"{where}: pixel_footprint must be 0 (off) to 64, got {cfg.pixel_footprint}")
+    if not 0 <= cfg.render.pixel_footprint <= 64:
+        raise NlosError(f"{where}: render.pixel_footprint must be 0 (off) to 64, got {cfg.render.pixel_footprint}")
 
 
 def memory_needed_bytes(cfg: DatasetConfig) -> int:
@@ -188,8 +203,9 @@ def memory_needed_bytes(cfg: DatasetConfig) -> int:
     pixels = cfg.resolution ** 2
     candidates = 2 * cfg.los_vertices
     direct = 2 * candidates * pixels * 3 * 4
-    person = cfg.pixel_footprint ** 2 if cfg.pixel_footprint > 0 else cfg.transport_pixel_samples ** 2
-    subsamples = (cfg.pixel_samples ** 2 + person) * pixels * 200
+    r = cfg.render
+    person = r.pixel_footprint ** 2 if r.pixel_footprint > 0 else r.transport_pixel_samples ** 2
+    subsamples = (r.pixel_samples ** 2 + person) * pixels * 200
     return int(direct + subsamples)
 
 

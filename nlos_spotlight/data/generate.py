@@ -22,6 +22,7 @@ import torch
 
 from ..errors import NlosError
 from ..render.settings import resolve_device
+from ..config_file import flatten
 from .config import ROOM_FAMILY, DatasetConfig, room_dir, sample_count
 from .store import (FORMAT, READABLE, atomic_json, content_sha256, file_digest, read_manifest, remove_stale_temporaries,
                     scene_id)
@@ -92,11 +93,13 @@ def _check_config(out: Path, cfg: DatasetConfig) -> None:
             old = json.loads(path.read_text())
         except json.JSONDecodeError:
             raise NlosError(f"{path}: corrupted (invalid JSON); remove it to start over") from None
+        old = flatten(DatasetConfig, old) if isinstance(old, dict) else {}  # written before the render block: flat
         old = {**{k: v for k, v in FORMAT_1_VALUES.items() if k not in old}, **old}
         if old.get("room") and cfg.room and room_dir(out, old["room"]) == room_dir(out, cfg.room):
             old["room"] = cfg.room  # the same room, named from another place
-        if old != cfg.to_dict():
-            diff = sorted(k for k in set(old) | set(cfg.to_dict()) if old.get(k) != cfg.to_dict().get(k))
+        new = flatten(DatasetConfig, cfg.to_dict())
+        if old != new:
+            diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
             raise NlosError(f"{out} holds a dataset made with another config (differs in: {', '.join(diff)})")
     else:
         atomic_json(path, cfg.to_dict())

@@ -245,7 +245,8 @@ class SceneBuilder:
 
         p = spec["params"]
         body = posed_body(p, target_faces=self.cfg.body_faces)
-        person = Person.from_mesh(body, p.albedo, self.cfg.person_samples, self.cfg.person_quadrature)
+        person = Person.from_mesh(body, p.albedo, self.cfg.render.person_samples,
+                                 self.cfg.render.person_quadrature)
         return body, person, np.array([spec["position"][0], spec["position"][1], floor_z])
 
     @staticmethod

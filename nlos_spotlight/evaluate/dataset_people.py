@@ -12,7 +12,7 @@ from pathlib import Path
 from ..data.config import DatasetConfig, transport_count
 from ..data.scene_builder import SceneBuilder
 from ..data.static import read_static
-from ..render.transport import Renderer, RenderSettings
+from ..render.transport import Renderer
 from ..world.rooms import generate_room
 
 
@@ -22,8 +22,7 @@ def room_renderer(cfg: DatasetConfig, p, data: Path, faces: list[int]):
     b = SceneBuilder(cfg, p, data)
     scene = generate_room(p.seed, b._room_config()).scene
     st = read_static(b.dir)
-    settings = RenderSettings(pixel_samples=cfg.pixel_samples, transport_pixel_samples=cfg.transport_pixel_samples,
-                              spot_samples=cfg.spot_samples, person_samples=cfg.person_samples, device="cpu")
+    settings = cfg.render_settings()
     return b, scene, Renderer(scene, settings, aim_points=st["aim_points"][faces])
 
 

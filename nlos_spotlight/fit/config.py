@@ -4,14 +4,33 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ..errors import NlosError
+from ..render.settings import ImageSampling, ShadowSampling
 
 CLOTHING = ("camera", "camera-log", "dataset")
 """Clothing distributions training redresses people in (``world.body.CLOTHING_RANGES``)."""
 POLICIES = ("oracle", "ien", "adaptive", "center", "random")
 """Spot policies ``nlos fit`` can use (``lighting``; 'ien' needs a trained run's checkpoint)."""
+
+
+FIT_SAMPLING = ImageSampling(pixel_samples=2, transport_pixel_samples=1, spot_samples=16, person_samples=1500,
+                             pixel_footprint=8)
+"""A fit's people are sampled as a dataset's (``render.settings.DATASET_SAMPLING``) but with 1,500
+body points (the face rule at 1,500 faces: under 0.5% error) and each pixel's footprint at 8 x 8."""
+
+FIT_SHADOW = ShadowSampling(shadow_samples=4096, shadow_depth=10, bounce_body_samples=1024)
+"""A fit's shadow step. ``shadow_depth`` 10 adds the room's later relays of the spot's light that
+the body stops (``render/tail.py``; copy room: 0.44 of the first relay's shadow where Mitsuba finds
+0.46 (0.40-0.55), and the whole photograph within 1% of Mitsuba's at depth 10 where the shadow
+alone gives 0.81: experiments/bounce-tail; trained with it, the copy room reads camera photographs
+at 66.8% / 14.9 cm where the model without it read 60.3% / 16.2 cm); 4: the first relay alone
+(the recipe before it); another depth renders only the shadow again (``fit/shadow.py``).
+``bounce_body_samples`` 1,024 body samples of the bounce's body <-> relay exchange (0: the body's
+own quadrature, the recipe before it). Copy room: the shadow step 1.9x faster, the bounce 3%
+(median) from the body's own, under its relay points' own 7% Monte Carlo noise
+(benchmarks/bounce_body_samples.py)."""
 
 
 @dataclass
@@ -50,33 +69,24 @@ class FitConfig:
     """Image width and height, binned pixels."""
     los_vertices: int = 200
     """Spot candidates: the camera-visible mesh decimated to about this many vertices."""
-    person_samples: int = 1500
-    """Body quadrature points (the face rule at 1,500 faces: under 0.5% error)."""
-    person_quadrature: str = "faces"
-    """Body sampling rule ('faces' or 'mc', render/person.py)."""
     body_faces: int = 1500
     """Decimated body faces."""
-    pixel_footprint: int = 8
-    """The person's light integrated over each pixel as a camera does: n x n sub-samples sharing out
-    the body samples (``RenderSettings.pixel_footprint``; 0: at the pixel's centre, the recipe
-    before it, which room models learned as a pattern: benchmarks/robustness.py)."""
-    footprint_jitter: bool = False
-    """The footprint's sub-samples jittered in their cells, a draw per set of people
-    (``data.config.footprint_draw``; the shadow's relay sets use the same sets), instead of at the
-    cells' centres: the centres' footprint mean is biased (about 7% at 8 x 8 in the copy room,
+    render: ImageSampling = field(default_factory=lambda: dataclasses.replace(FIT_SAMPLING))
+    """How each person's photograph is sampled (``render.settings.ImageSampling``, :data:`FIT_SAMPLING`):
+    the dataset's sampling of the per-scene terms and the spot, 1,500 body points (the face rule at
+    1,500 faces: under 0.5% error), and ``pixel_footprint`` 8: the person's light integrated over
+    each pixel as a camera does, n x n sub-samples sharing out the body samples (0: at the pixel's
+    centre, the recipe before it, which room models learned as a pattern: benchmarks/robustness.py).
+    ``footprint_jitter`` puts the footprint's sub-samples anywhere in their cells, a draw per set of
+    people (``data.config.footprint_draw``; the shadow's relay sets use the same sets), instead of at
+    the cells' centres: the centres' footprint mean is biased (about 7% at 8 x 8 in the copy room,
     falling as 1/n) and one fixed pattern for every person (benchmarks/robustness.py)."""
-    shadow_samples: int = 4096
-    """Static points relaying the spot light each person's body blocks (``nlos_shadow``, in every real
-    with-minus-without photograph), rendered under the chosen spot and added to every training
-    photograph (``fit/shadow.py``); 0 leaves it out (the recipe before it)."""
-    shadow_depth: int = 10
-    """Mitsuba's ``max_depth`` the stored ``nlos_shadow`` counts to (``RenderSettings.shadow_depth``):
-    10 adds the room's later relays of the spot's light that the body stops (``render/tail.py``;
-    copy room: 0.44 of the first relay's shadow where Mitsuba finds 0.46 (0.40-0.55), and the whole
-    photograph within 1% of Mitsuba's at depth 10 where the shadow alone gives 0.81:
-    experiments/bounce-tail; trained with it, the copy room reads camera photographs at 66.8% /
-    14.9 cm where the model without it read 60.3% / 16.2 cm); 4: the first relay alone (the recipe
-    before it). Another depth renders only the shadow again (``fit/shadow.py``)."""
+    shadow: ShadowSampling = field(default_factory=lambda: dataclasses.replace(FIT_SHADOW))
+    """How the light each body stops and bounces is sampled (``render.settings.ShadowSampling``,
+    :data:`FIT_SHADOW`): ``shadow_samples`` static points relaying the spot light each person's body
+    blocks (``nlos_shadow``, in every real with-minus-without photograph), rendered under the chosen
+    spot and added to every training photograph (``fit/shadow.py``), 0 leaving it out (the recipe
+    before it); ``shadow_depth`` and ``bounce_body_samples`` as :data:`FIT_SHADOW` says."""
     bounce: bool = True
     """Also each person's light over one more static bounce (``nlos_bounce``, ``render/bounce.py``:
     the room relaying the spot onto the body and the body's light to the camera; 24% of the
@@ -90,11 +100,6 @@ class FitConfig:
     :data:`render.bounce.BOUNCE_TAIL` (1.9) stands in for every later bounce of the light off the
     body as Mitsuba measures them (1.8-2.0 in three reference scenes and the scanned copy room), 1
     the fifth bounce alone."""
-    bounce_body_samples: int = 1024
-    """Body samples of the bounce's body <-> relay exchange (``RenderSettings.bounce_body_samples``;
-    0: the body's own quadrature, the recipe before it). Copy room: the shadow step 1.9x faster,
-    the bounce 3% (median) from the body's own, under its relay points' own 7% Monte Carlo noise
-    (benchmarks/bounce_body_samples.py)."""
     shadow_relay: str = "per-person"
     """The shadow's relay points: 'per-person' (each person its own strata offset, one of
     ``fit.shadow.RELAY_SETS`` a block, so that their sampling error is noise, not a pattern the
@@ -140,23 +145,31 @@ class FitConfig:
     before the network reads it (False: the network alone learns to ignore the drift)."""
 
     def __post_init__(self) -> None:
+        self._blocks()
+        r, sh = self.render, self.shadow
         checks = {"people": 1, "heldout": 1, "ceiling_people": 0, "transport_people": 1, "burst_frames": 1, "resolution": 8,
-                  "los_vertices": 8, "person_samples": 1, "body_faces": 100, "min_steps": 0, "workers": 0}
-        for k, lo in checks.items():
-            v = getattr(self, k)
+                  "los_vertices": 8, "body_faces": 100, "min_steps": 0, "workers": 0}
+        values = {**{k: getattr(self, k) for k in checks},
+                  **{k: getattr(r, k) for k in ("person_samples", "pixel_samples", "transport_pixel_samples", "spot_samples")}}
+        for k, v in values.items():
+            lo = checks.get(k, 1)
             if isinstance(v, bool) or not isinstance(v, int) or v < lo:
                 raise NlosError(f"fit: {k} must be an integer of at least {lo}, got {v!r}")
+        from ..render.person import QUADRATURES
+
+        if r.person_quadrature not in QUADRATURES:
+            raise NlosError(f"fit: person_quadrature must be one of {', '.join(QUADRATURES)}, got {r.person_quadrature!r}")
         self._check_light()
-        if isinstance(self.shadow_samples, bool) or not isinstance(self.shadow_samples, int) \
-                or not 0 <= self.shadow_samples <= 1_000_000:
-            raise NlosError(f"fit: shadow_samples must be an integer from 0 (off) to 1000000, got {self.shadow_samples!r}")
-        if isinstance(self.shadow_depth, bool) or not isinstance(self.shadow_depth, int) or not 4 <= self.shadow_depth <= 16:
-            raise NlosError(f"--shadow-depth: expected an integer from 4 (the first relay alone) to 16, got {self.shadow_depth!r}")
-        if self.bounce is not False and (self.bounce is not True or self.shadow_samples == 0):
+        if isinstance(sh.shadow_samples, bool) or not isinstance(sh.shadow_samples, int) \
+                or not 0 <= sh.shadow_samples <= 1_000_000:
+            raise NlosError(f"fit: shadow_samples must be an integer from 0 (off) to 1000000, got {sh.shadow_samples!r}")
+        if isinstance(sh.shadow_depth, bool) or not isinstance(sh.shadow_depth, int) or not 4 <= sh.shadow_depth <= 16:
+            raise NlosError(f"--shadow-depth: expected an integer from 4 (the first relay alone) to 16, got {sh.shadow_depth!r}")
+        if self.bounce is not False and (self.bounce is not True or sh.shadow_samples == 0):
             raise NlosError(f"--bounce: expected on or off, and on (the default) needs the shadow's relay points "
                             f"(shadow_samples > 0; add --bounce off), got {self.bounce!r} with shadow_samples "
-                            f"{self.shadow_samples}")
-        n = self.bounce_body_samples
+                            f"{sh.shadow_samples}")
+        n = sh.bounce_body_samples
         if isinstance(n, bool) or not isinstance(n, int) or not 0 <= n <= 1_000_000:
             raise NlosError(f"fit: bounce_body_samples must be an integer from 0 (the body's own) to 1000000, got {n!r}")
         scale = self.bounce_scale
@@ -166,8 +179,10 @@ class FitConfig:
             raise NlosError(f"--shadow-relay: expected 'per-person' or 'fixed', got {self.shadow_relay!r}")
         if self.clothing not in CLOTHING:
             raise NlosError(f"--clothing: expected one of {', '.join(CLOTHING)}, got {self.clothing!r}")
-        if not 0 <= self.pixel_footprint <= 64 or isinstance(self.pixel_footprint, bool):
-            raise NlosError(f"fit: pixel_footprint must be an integer from 0 (off) to 64, got {self.pixel_footprint!r}")
+        if not isinstance(r.pixel_footprint, int) or isinstance(r.pixel_footprint, bool) or not 0 <= r.pixel_footprint <= 64:
+            raise NlosError(f"fit: pixel_footprint must be an integer from 0 (off) to 64, got {r.pixel_footprint!r}")
+        if not isinstance(r.footprint_jitter, bool):
+            raise NlosError(f"fit: footprint_jitter must be true or false, got {r.footprint_jitter!r}")
         from ..render.settings import DEVICES
 
         if self.render_device not in DEVICES:
@@ -193,7 +208,7 @@ class FitConfig:
             preset(self.world_variation)
         except NlosError as exc:
             raise NlosError(f"--world-variation: {str(exc).split(': ', 1)[1]}") from None
-        if self.world_variation != "ideal" and self.shadow_samples == 0:
+        if self.world_variation != "ideal" and sh.shadow_samples == 0:
             raise NlosError("--world-variation renders the people again with their shadow: it needs --shadow-samples > 0")
         from ..evaluate.methods import LIGHTS, UNAIMED, fit_method, unaimed_method
 
@@ -208,6 +223,19 @@ class FitConfig:
         if (self.policy == "ien") != bool(self.checkpoint):
             raise NlosError("--policy ien needs --checkpoint RUN (a run trained with policy 'ien'), "
                             "and --checkpoint goes only with --policy ien")
+
+    def _blocks(self) -> None:
+        """The sampling blocks as their dataclasses (a mapping of their fields, as a record writes
+        them, over :data:`FIT_SAMPLING` / :data:`FIT_SHADOW`; an unknown field is refused in one line)."""
+        for name, kind, default in (("render", ImageSampling, FIT_SAMPLING), ("shadow", ShadowSampling, FIT_SHADOW)):
+            v = getattr(self, name)
+            if isinstance(v, dict):
+                try:
+                    setattr(self, name, dataclasses.replace(default, **v))
+                except (TypeError, ValueError) as exc:
+                    raise NlosError(f"fit: {name}: {exc}") from None
+            elif not isinstance(v, kind):
+                raise NlosError(f"fit: {name} must be a mapping of {kind.__name__} fields, got {v!r}")
 
     @property
     def light(self) -> str:
@@ -225,7 +253,7 @@ class FitConfig:
             return
         why = f"--method {self.method} lights no spot ({LIGHTS[self.light].words})"
         spot_only = ((self.bounce is not False, "--bounce on", "the bounce relays the spot's light", "--bounce off"),
-                     (self.shadow_samples != 0, f"--shadow-samples {self.shadow_samples}",
+                     (self.shadow.shadow_samples != 0, f"--shadow-samples {self.shadow.shadow_samples}",
                       "the body's shadow is rendered under a spot only", "--shadow-samples 0"),
                      (self.world_variation != "ideal", f"--world-variation {self.world_variation}",
                       "the drawn worlds are rendered under the spot", "--world-variation ideal"),
@@ -246,16 +274,20 @@ class FitConfig:
         one's record."""
         d = dataclasses.asdict(self)
         if not self.bounce:
-            d.update({k: BEFORE[k] for k in BOUNCE_SETTINGS})
-        if not self.shadow_samples:
-            d["shadow_depth"] = BEFORE["shadow_depth"]
+            d["bounce_scale"] = BEFORE["bounce_scale"]
+            d["shadow"]["bounce_body_samples"] = BEFORE["bounce_body_samples"]
+        if not self.shadow.shadow_samples:
+            d["shadow"]["shadow_depth"] = BEFORE["shadow_depth"]
         return d
 
     @classmethod
     def from_record(cls, settings: dict) -> "FitConfig":
         """The config a room model was fitted with (``fit.json``'s settings): a setting its version
-        did not have yet takes the value that version used (:data:`BEFORE`), not today's default."""
-        return cls(**{k: v for k, v in recorded(settings).items() if k in cls.__dataclass_fields__})
+        did not have yet takes the value that version used (:data:`BEFORE`), not today's default;
+        flat (before the sampling blocks) or nested."""
+        from ..config_file import nest
+
+        return cls(**{k: v for k, v in nest(cls, recorded(settings)).items() if k in cls.__dataclass_fields__})
 
 
 UNAIMED_DEFAULTS = {"shadow_samples": 0, "bounce": False, "capture_preset": "ideal"}
@@ -304,27 +336,30 @@ def _available_memory() -> float | None:
     return None
 
 
-BEFORE = {"method": "ours", "capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "footprint_jitter": False, "shadow_samples": 0,
+BEFORE = {"pixel_samples": 2, "transport_pixel_samples": 1, "spot_samples": 16, "method": "ours", "capture_preset": "ideal", "project_nuisance": True, "pixel_footprint": 0, "footprint_jitter": False, "shadow_samples": 0,
           "clothing": "dataset", "bounce": False, "bounce_scale": 1.0, "bounce_body_samples": 0, "shadow_depth": 4, "shadow_relay": "fixed", "world_variation": "ideal", "ceiling_people": 0}
 """What a room model fitted before each of these settings existed did (see their docstrings)."""
 
 
-BOUNCE_SETTINGS = ("bounce_scale", "bounce_body_samples")
-"""Settings of the bounce, moot without it (:meth:`FitConfig.to_dict`)."""
+
 
 
 def recorded(settings: dict) -> dict:
-    """A ``fit.json``'s settings with those its version did not have yet at the value that version
-    used (:data:`BEFORE`): a setting added since is no difference where it keeps that behaviour."""
-    return {**BEFORE, **settings} if isinstance(settings, dict) else settings
+    """A ``fit.json``'s settings, flat (``config_file.flatten``: the sampling blocks' fields by their
+    own names, as they are compared), with those its version did not have yet at the value that
+    version used (:data:`BEFORE`): a setting added since is no difference where it keeps that behaviour."""
+    from ..config_file import flatten
+
+    return {**BEFORE, **flatten(FitConfig, settings)} if isinstance(settings, dict) else settings
 
 
 PRESETS = {
     "default": FitConfig(),
     # tests and a first look: tens of people, coarse bodies, seconds to a minute
     "tiny": FitConfig(name="tiny", people=40, heldout=10, transport_people=3, burst_frames=4, resolution=16,
-                      los_vertices=40, person_samples=96, person_quadrature="mc", body_faces=400, pixel_footprint=2,
-                      shadow_samples=128,
+                      los_vertices=40, body_faces=400,
+                      render=dataclasses.replace(FIT_SAMPLING, person_samples=96, person_quadrature="mc", pixel_footprint=2),
+                      shadow=dataclasses.replace(FIT_SHADOW, shadow_samples=128),
                       epochs=2.0,
                       min_steps=20, workers=1, ceiling_people=1),
     # make demo: a real scan fitted in under 20 minutes on 2 cores (600 people, 30 epochs). The shadow
@@ -333,5 +368,5 @@ PRESETS = {
     # 1,527 s, each demo's timing.json; the bounce 6% from the body's own quadrature, under its relay
     # noise: docs/results/bounce-body-samples.txt)
     "demo": FitConfig(name="demo", people=600, heldout=60, transport_people=16, epochs=30.0, min_steps=300,
-                      ceiling_people=2, shadow_samples=2048, bounce_body_samples=256),
+                      ceiling_people=2, shadow=dataclasses.replace(FIT_SHADOW, shadow_samples=2048, bounce_body_samples=256)),
 }

@@ -52,9 +52,8 @@ def dataset_config(cfg: FitConfig, room_dir: Path, extra_spots: list[int] | None
     return DatasetConfig(name="fit", seed=cfg.seed, train_scenes=1, val_scenes=0, test_scenes=0,
                          samples_per_scene=cfg.samples, transport_samples_per_scene=cfg.transport_people,
                          trajectories_per_test_scene=0, trajectories_per_train_scene=0, resolution=cfg.resolution,
-                         los_vertices=cfg.los_vertices, body_faces=cfg.body_faces, person_samples=cfg.person_samples,
-                         person_quadrature=cfg.person_quadrature, pixel_footprint=cfg.pixel_footprint,
-                         footprint_jitter=cfg.footprint_jitter, room=str(Path("..") / room_dir.name),
+                         los_vertices=cfg.los_vertices, body_faces=cfg.body_faces,
+                         render=dataclasses.replace(cfg.render), room=str(Path("..") / room_dir.name),
                          extra_spots=list(extra_spots or []))
 
 
@@ -172,7 +171,7 @@ def check_out(out: Path, record: dict, resume: bool) -> None:
             raise NlosError(f"{path}: corrupted (invalid JSON); remove {out} to start over") from None
         if not resume:
             raise NlosError(f"{out} already holds a fit: pass --resume to continue it, or choose another --out")
-        a, b = recorded(old.get("settings", {})), record["settings"]
+        a, b = recorded(old.get("settings", {})), recorded(record["settings"])
         diff = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k) and k not in RESUMABLE_CHANGES)
         if diff:
             raise NlosError(f"{out} holds a fit with other settings (differs in: {', '.join(diff)}; a fit made "
@@ -240,7 +239,7 @@ def reuse_people(source: Path, out: Path, record: dict) -> None:
         old = json.loads((source / "fit.json").read_text())["settings"]
     except (OSError, json.JSONDecodeError, KeyError, TypeError):
         raise NlosError(f"--people-from: {source} is not a room model (no readable fit.json)") from None
-    old, new = recorded(old), record["settings"]
+    old, new = recorded(old), recorded(record["settings"])
     fixed = "ien" not in (old.get("policy"), new.get("policy"))
     diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k) and k not in TRAINING_ONLY
                   and not (k == "policy" and fixed))
@@ -258,7 +257,7 @@ def reuse_people(source: Path, out: Path, record: dict) -> None:
     out.mkdir(parents=True, exist_ok=True)
     shutil.copytree(source / "room", out / "room")
     shutil.copytree(source / "data", out / "data", copy_function=link)
-    if (source / "shadow").is_dir() and record["settings"].get("shadow_samples"):  # no spot: no shadow to keep
+    if (source / "shadow").is_dir() and new.get("shadow_samples"):  # no spot: no shadow to keep
         shutil.copytree(source / "shadow", out / "shadow", copy_function=link)
     shutil.copy2(source / "room.json", out / "room.json")
     if (source / "ceiling.json").exists():  # the room, its people and the render: ceiling_record checks the rest
@@ -367,7 +366,7 @@ def _fit_steps(room: str, out: Path, cfg: FitConfig, flags: dict, record: dict, 
     split = room_split(out, cfg, ["normals"])
     spot, layers = _spot_step(out, cfg, split, extra)
     clock.lap("spot_s")
-    if cfg.shadow_samples > 0:  # the light each body blocks, under the chosen spot
+    if cfg.shadow.shadow_samples > 0:  # the light each body blocks, under the chosen spot
         from .shadow import render_shadows
 
         console.rule("3/5 spot: shadow")

@@ -135,13 +135,12 @@ def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int]
     world variation, :func:`_in_worlds`). ``keep``: the block is whole at another ``shadow_depth``;
     only :data:`DEPTH_COMPONENTS` are rendered again, its other arrays kept as they are."""
     from ..data.store import atomic_npz, f16_encode
-    from ..render.settings import resolve_device
+    from ..render.settings import RenderSettings, resolve_device
     from .run import room_builder
 
     out_p, fc = Path(out), FitConfig(**cfg)
     builder, dcfg = room_builder(out_p, fc)
-    settings = dcfg.render_settings(shadow_samples=fc.shadow_samples, bounce_body_samples=fc.bounce_body_samples,
-                                    shadow_depth=fc.shadow_depth, device=resolve_device(fc.render_device))
+    settings = RenderSettings.of(dcfg.render, fc.shadow, device=resolve_device(fc.render_device))
     aim = np.asarray(aim, np.float64)
     comps = DEPTH_COMPONENTS if keep else components(fc)
     if fc.world_variation == "ideal":
@@ -155,7 +154,7 @@ def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int]
     for c, img in got.items():
         arrays[c], arrays[f"{c}_scale"] = f16_encode(img, True)
     atomic_npz(_path(out_p, block), indices=np.asarray(indices, np.int64),
-               shadow_depth=np.asarray(fc.shadow_depth, np.int64), **arrays)
+               shadow_depth=np.asarray(fc.shadow.shadow_depth, np.int64), **arrays)
     return len(indices)
 
 
@@ -175,11 +174,12 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
     from ..render.bounce import NEAR_FIELD
 
     out, d = Path(out), shadow_dir(out)
-    meta = {"face": int(spot["face"]), "aim": [float(a) for a in spot["aim"]], "shadow_samples": cfg.shadow_samples,
-            "pixel_footprint": cfg.pixel_footprint, "footprint_jitter": cfg.footprint_jitter, "bounce": cfg.bounce,
-            "shadow_relay": cfg.shadow_relay, "shadow_depth": cfg.shadow_depth,
+    sh = cfg.shadow
+    meta = {"face": int(spot["face"]), "aim": [float(a) for a in spot["aim"]], "shadow_samples": sh.shadow_samples,
+            "pixel_footprint": cfg.render.pixel_footprint, "footprint_jitter": cfg.render.footprint_jitter,
+            "bounce": cfg.bounce, "shadow_relay": cfg.shadow_relay, "shadow_depth": sh.shadow_depth,
             "world_variation": cfg.world_variation,
-            **({"bounce_near_field": NEAR_FIELD, "bounce_body_samples": cfg.bounce_body_samples} if cfg.bounce else {})}
+            **({"bounce_near_field": NEAR_FIELD, "bounce_body_samples": sh.bounce_body_samples} if cfg.bounce else {})}
     stored = {"shadow_relay": "fixed", "shadow_depth": 4, "world_variation": "ideal", "footprint_jitter": False, "bounce": False,
               **json.loads((d / "meta.json").read_text())} \
         if (d / "meta.json").exists() else dict(meta)
@@ -194,14 +194,14 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
     if apart(stored) != apart(meta):
         for p in d.glob("block-*.npz"):  # another spot or setting: nothing to keep (another depth: the rest kept)
             p.unlink()
-        meta["unkeyed_shadow_depth"] = unkeyed = cfg.shadow_depth
+        meta["unkeyed_shadow_depth"] = unkeyed = sh.shadow_depth
     d.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(d)
     atomic_json(d / "meta.json", meta)
     todo = []  # (block, its samples, whether it keeps its arrays other than DEPTH_COMPONENTS)
     for b, idx in _blocks(cfg.transport_people, cfg.samples):
         depth = _block_depth(_path(out, b), idx, components(cfg), unkeyed)
-        if depth != cfg.shadow_depth:
+        if depth != sh.shadow_depth:
             todo.append((b, idx, depth is not None))
     total = cfg.samples - cfg.transport_people
     columns = (TextColumn("shadow"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())

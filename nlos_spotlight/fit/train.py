@@ -135,10 +135,10 @@ def train_room(cfg: FitConfig, out: Path, progress: bool, split: RoomSplit | Non
         room = with_layers(room, layers)
     tc, spots = fit_train_config(cfg, out), None
     if cfg.policy == "ien":
-        import json
+        from ..data.config import read_dataset_config
 
         tc = dataclasses.replace(tc, ien_features=features, ien=ien_cfg)
-        spots = json.loads((Path(out) / "data" / "config.json").read_text())["extra_spots"][:1]
+        spots = read_dataset_config(Path(out) / "data").extra_spots[:1]
     result = run_seen(tc, [room], cfg.people, Path(out) / "train", cfg.epochs, progress=progress,
                       min_steps=cfg.min_steps, keep_model=Path(out) / "final.pt", ien_state=ien_state, spots=spots)
     if layers is not None and result.spots[0] is not None and result.spots[0] >= 0:

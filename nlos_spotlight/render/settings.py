@@ -3,12 +3,14 @@ apart from the renderer so that reading them (``nlos render --help``) does not i
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 
 @dataclass
-class RenderSettings:
-    """Sampling and numerics of :class:`Renderer`."""
+class ImageSampling:
+    """How a person's photograph is sampled: the render knobs that set a dataset's images, declared
+    once here and nested as ``render`` in ``DatasetConfig`` and ``FitConfig`` (their defaults differ
+    per config: :data:`DATASET_SAMPLING`, ``fit.config``)."""
 
     pixel_samples: int = 4
     """n: n x n stratified sub-samples per pixel for the per-scene terms (direct, ambient, interreflection)."""
@@ -19,8 +21,6 @@ class RenderSettings:
     share out the body samples (and the shadow's static points) among them, each pair once, at about
     the cost of one sub-sample (``Renderer`` docstring); 0: ``transport_pixel_samples`` sub-samples
     each see every body sample."""
-    footprint_seed: int = 20_241
-    """Seed of the pixels' fixed slot offsets in footprint sampling (images are deterministic)."""
     footprint_jitter: bool = False
     """Footprint sampling: each sub-sample anywhere in its cell (uniform, drawn from the seed and the
     call's ``footprint_draw``), not at the cell's centre. The centres integrate the footprint with a
@@ -30,6 +30,16 @@ class RenderSettings:
     """Projector rays per candidate spot (equal solid angle)."""
     person_samples: int = 512
     """Area samples on the body."""
+    person_quadrature: str = "faces"
+    """Body sampling rule: 'faces' (per-face centroid rule, at least one sample a face) or 'mc'
+    (``render/person.py``); read where the body becomes a ``Person``."""
+
+
+@dataclass
+class ShadowSampling:
+    """How the light the body stops (``nlos_shadow``) and the light it bounces back (``nlos_bounce``)
+    are sampled: nested as ``shadow`` in ``FitConfig`` (a fit's shadow step; datasets render neither)."""
+
     shadow_samples: int = 4096
     """Area samples of the static surfaces relaying the spot light the person blocks (``nlos_shadow``)."""
     shadow_depth: int = 4
@@ -41,6 +51,14 @@ class RenderSettings:
     reference), else this many stratified ones at the relay points' offset (``Person.resampled``):
     the term is smooth over the body, and its relay points already carry Monte Carlo noise
     (benchmarks/bounce_body_samples.py)."""
+
+
+@dataclass
+class RenderSettings(ImageSampling, ShadowSampling):
+    """Sampling (:class:`ImageSampling`, :class:`ShadowSampling`) and numerics of :class:`Renderer`."""
+
+    footprint_seed: int = 20_241
+    """Seed of the pixels' fixed slot offsets in footprint sampling (images are deterministic)."""
     relay_offset: float = 0.5
     """Offset in [0, 1) of those samples' strata (``person.monte_carlo``); ``Renderer.render`` may
     take another per call, so that people need not share one fixed pattern of relay points."""
@@ -57,6 +75,19 @@ class RenderSettings:
     rays: str = "auto"
     """Engine of the per-person occlusion rays: 'embree' (embreex, one ray at a time: the reference),
     'drjit' (Mitsuba 3's array ray tests: all cores, or OptiX on the GPU) or 'auto' (drjit where it runs)."""
+
+    @classmethod
+    def of(cls, image: ImageSampling, shadow: ShadowSampling | None = None, **execution) -> "RenderSettings":
+        """The settings of a config's sampling blocks (the one place they pass to the renderer), with
+        ``execution`` (``device``, ``fuse``, ``rays``, ...) or further overrides."""
+        blocks = {**asdict(shadow or ShadowSampling()), **asdict(image)}
+        return cls(**{**blocks, **execution})
+
+
+DATASET_SAMPLING = ImageSampling(pixel_samples=2, transport_pixel_samples=1, spot_samples=16, person_samples=3500)
+"""A dataset's sampling unless its config says otherwise: per-scene terms at 2 x 2 and the person's
+at one sub-sample a pixel (the per-person cost), 16 projector rays a spot, 3,500 body samples (the
+faces rule on 1,500 faces: under 0.5% from converged, ``benchmarks/person_convergence.py``)."""
 
 
 DEVICES = ("cpu", "cuda", "auto")
@@ -90,4 +121,5 @@ dataset config), ``single-image`` (``nlos render``: one image, more samples for 
 ``fast`` (a frame at video rate: 44-47 ms for a 64 x 64 image after the precompute on 2 CPU cores,
 ``benchmarks/render_speed.py``; its ``nlos`` is within 3.3% of ``default``'s in total)."""
 
-__all__ = ["DEVICES", "RENDER_PRESETS", "RenderSettings", "resolve_device"]
+__all__ = ["DATASET_SAMPLING", "DEVICES", "ImageSampling", "RENDER_PRESETS", "RenderSettings", "ShadowSampling",
+           "resolve_device"]

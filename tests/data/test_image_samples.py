@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 import torch
 
+from nlos_spotlight.config_file import with_fields
 from nlos_spotlight.data.config import load_config
 from nlos_spotlight.data.generate import generate, verify
 from nlos_spotlight.data.store import f16_decode, f16_encode
@@ -34,7 +35,7 @@ FIELDS = dict(train_scenes=1, val_scenes=0, test_scenes=0, samples_per_scene=N, 
 
 
 def config(**changes):
-    return dataclasses.replace(load_config("tiny"), name="tiny-images", **{**FIELDS, **changes})
+    return with_fields(load_config("tiny"), name="tiny-images", **{**FIELDS, **changes})
 
 
 @pytest.fixture(scope="module")

@@ -1,11 +1,9 @@
 """The physics bounds' people: re-posed from a dataset's specs, they are the people it stored."""
 
-import json
-
 import numpy as np
 import torch
 
-from nlos_spotlight.data.config import DatasetConfig
+from nlos_spotlight.data.config import read_dataset_config
 from nlos_spotlight.data.generate import plan
 from nlos_spotlight.data.tensors import ground_frame, load_scene_tensors
 from nlos_spotlight.evaluate.dataset_people import room_renderer, static_specs
@@ -15,7 +13,7 @@ from nlos_spotlight.world.body import POSTURES
 def test_static_specs_are_the_stored_static_people(micro_scene):
     scene_dir, _ = micro_scene
     data = scene_dir.parent.parent
-    cfg = DatasetConfig(**json.loads((data / "config.json").read_text()))
+    cfg = read_dataset_config(data)
     p = next(q for q in plan(cfg) if q.id == scene_dir.name)
     builder, scene, r = room_renderer(cfg, p, data, [0])
     assert r.shape[:2] == (cfg.resolution, cfg.resolution)

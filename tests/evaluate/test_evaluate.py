@@ -20,8 +20,9 @@ from nlos_spotlight.train.loop import train
 
 MICRO = dict(name="micro-eval", seed=5, train_scenes=2, val_scenes=0, test_scenes=1, samples_per_scene=6,
              trajectories_per_test_scene=1, trajectory_frames=5, resolution=12, los_vertices=40,
-             transport_rank=8, body_faces=600, pixel_samples=1, transport_pixel_samples=1, spot_samples=4,
-             person_samples=48, person_quadrature="mc")
+             transport_rank=8, body_faces=600,
+             render=dict(pixel_samples=1, transport_pixel_samples=1, spot_samples=4, person_samples=48,
+                         person_quadrature="mc"))
 
 
 def test_per_class_matches_hand_computation():

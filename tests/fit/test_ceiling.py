@@ -9,6 +9,7 @@ import torch
 
 from nlos_spotlight.fit.ceiling import STEPS, crb_m, jacobian, jacobian_reference, perturbed
 from nlos_spotlight.render.sensor import SensorConfig, noise_variance_dn
+from nlos_spotlight.render.settings import ImageSampling
 from nlos_spotlight.world.body import BodyParams
 
 
@@ -77,7 +78,7 @@ def test_jacobian_equals_its_central_differences(small_corner, albedo, hidden, s
                                        person_samples=128, dtype="float64", device="cpu"),
                  aim_points=SPOT_TARGET[None])
     y = r.spot_vector(0) if spot else torch.zeros_like(r.spot_vector(0))
-    dcfg = SimpleNamespace(body_faces=400, person_samples=128, person_quadrature="faces")
+    dcfg = SimpleNamespace(body_faces=400, render=ImageSampling(person_samples=128, person_quadrature="faces"))
     hr = scene.hidden_region
     t = np.array([*(hr.min + hr.max) / 2, hr.floor_z])
     params = BodyParams(posture="sitting", facing_deg=20.0, height_m=1.7, albedo=np.array(albedo))

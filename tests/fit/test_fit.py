@@ -14,12 +14,13 @@ import pytest
 import torch
 
 from nlos_spotlight.cli import main
+from nlos_spotlight.config_file import flatten, with_fields
 from nlos_spotlight.fit.config import BEFORE, PRESETS, FitConfig
 from nlos_spotlight.fit.run import dataset_config, fit_room, render_people
 from nlos_spotlight.scene.examples import corner_scene
 from nlos_spotlight.scene.io import save_scene
 
-TINY = dataclasses.replace(PRESETS["tiny"], people=24, heldout=6, transport_people=2, los_vertices=30,
+TINY = with_fields(PRESETS["tiny"], people=24, heldout=6, transport_people=2, los_vertices=30,
                            person_samples=64, body_faces=300, min_steps=8, epochs=1.0)
 """Seconds: 36 people on 16x16 images, a 30-vertex candidate mesh."""
 
@@ -373,10 +374,10 @@ def test_config_checks():
     assert PRESETS["default"].samples == 24 + 3000 + 200
     for bad in ({"bounce_scale": 0.0}, {"bounce_scale": float("nan")}, {"bounce_scale": 11.0}):
         with pytest.raises(Exception, match="--bounce-scale"):
-            FitConfig(**bad)
+            with_fields(FitConfig(), **bad)
     for bad in ({"shadow_depth": 3}, {"shadow_depth": 17}, {"shadow_depth": 6.0}, {"shadow_depth": True}):
         with pytest.raises(Exception, match="--shadow-depth"):
-            FitConfig(**bad)
+            with_fields(FitConfig(), **bad)
     for bad in (0.0, -1.0, float("nan"), float("inf"), 1e6, True):
         with pytest.raises(Exception, match="--epochs"):
             FitConfig(epochs=bad)
@@ -384,21 +385,21 @@ def test_config_checks():
 
     args = build_parser().parse_args(["fit", "room.ply", "--out", "o", "--epochs", "120"])
     assert _fit_flags(args)["epochs"] == 120.0 and "epochs" not in _fit_flags(build_parser().parse_args(["fit", "r", "--out", "o"]))
-    assert FitConfig().shadow_depth == 10  # the room's later relays of the spot's light, which the body stops too
-    no_shadow = FitConfig(shadow_samples=0, bounce=False).to_dict()  # moot without the shadow: recorded as before it
-    assert no_shadow["shadow_depth"] == BEFORE["shadow_depth"] == 4
+    assert FitConfig().shadow.shadow_depth == 10  # the room's later relays of the spot's light, which the body stops too
+    no_shadow = with_fields(FitConfig(), shadow_samples=0, bounce=False).to_dict()  # moot without the shadow: as before it
+    assert no_shadow["shadow"]["shadow_depth"] == BEFORE["shadow_depth"] == 4
     from nlos_spotlight.render.bounce import BOUNCE_TAIL
 
     cfg = FitConfig()  # the default recipe trains on every later bounce, as Mitsuba measures them
-    assert cfg.bounce and cfg.bounce_scale == BOUNCE_TAIL and cfg.bounce_body_samples > 0
+    assert cfg.bounce and cfg.bounce_scale == BOUNCE_TAIL and cfg.shadow.bounce_body_samples > 0
     off = FitConfig(bounce=False, bounce_scale=3.0).to_dict()  # moot without the bounce: recorded as before it
-    assert off["bounce_scale"] == BEFORE["bounce_scale"] and off["bounce_body_samples"] == BEFORE["bounce_body_samples"]
+    assert off["bounce_scale"] == BEFORE["bounce_scale"] and off["shadow"]["bounce_body_samples"] == BEFORE["bounce_body_samples"]
     assert dataclasses.replace(FitConfig(bounce=False), bounce=True).bounce_scale == BOUNCE_TAIL
     with pytest.raises(Exception, match="add --bounce off"):  # the bounce goes through the shadow's relay points
-        FitConfig(shadow_samples=0)
-    assert not FitConfig(shadow_samples=0, bounce=False).bounce
+        with_fields(FitConfig(), shadow_samples=0)
+    assert not with_fields(FitConfig(), shadow_samples=0, bounce=False).bounce
     with pytest.raises(Exception, match="bounce_body_samples"):
-        FitConfig(bounce_body_samples=-1)
+        with_fields(FitConfig(), bounce_body_samples=-1)
 
 
 def test_deeply_nested_scene_is_one_line(tmp_path, capsys):
@@ -480,12 +481,10 @@ def test_shadow_step_stores_each_persons_blocked_light(fitted):
     sh = load_shadows(out, TINY)
     assert sh.shape[0] == TINY.samples - TINY.transport_people and (sh <= 0).all() and (sh < 0).any()
     meta = json.loads((out / "shadow" / "meta.json").read_text())
-    assert meta["face"] == report["spot"]["face"] and meta["shadow_samples"] == TINY.shadow_samples
+    assert meta["face"] == report["spot"]["face"] and meta["shadow_samples"] == TINY.shadow.shadow_samples
     dcfg = dataclasses.replace(dataset_config(TINY, out / "room"), room=str((out / "room").resolve()))
     k = int(np.argmin(sh.reshape(len(sh), -1).sum(1)))  # the person who blocks the most
-    settings = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=TINY.pixel_footprint,
-                              spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
-                              shadow_samples=TINY.shadow_samples, shadow_depth=TINY.shadow_depth, device="cpu")
+    settings = RenderSettings.of(dcfg.render, TINY.shadow, device="cpu")
     idx = [TINY.transport_people + k]
     offsets = relay_offsets(idx, TINY)  # each person's own relay points
     assert meta["shadow_relay"] == "per-person" and offsets is not None
@@ -554,9 +553,7 @@ def test_world_variation_trains_on_each_person_in_a_drawn_world(fitted, tmp_path
     assert set(got) == {*WORLD_COMPONENTS, "nlos_bounce"} and all(len(v) == len(first) for v in got.values())
     dcfg = dataclasses.replace(dataset_config(TINY, dest / "room"), room=str((dest / "room").resolve()))
     builder = SceneBuilder(dcfg, plan(dcfg)[0], dest / "data")
-    settings = RenderSettings(pixel_samples=dcfg.pixel_samples, pixel_footprint=TINY.pixel_footprint,
-                              spot_samples=dcfg.spot_samples, person_samples=dcfg.person_samples,
-                              shadow_samples=TINY.shadow_samples, shadow_depth=TINY.shadow_depth, device="cpu")
+    settings = RenderSettings.of(dcfg.render, TINY.shadow, device="cpu")
     i = 3
     k = first[i]
     world, world_aim, drawn = mismatched_world(builder.room_scene(), aim, preset("tripod").world_effects,
@@ -586,16 +583,17 @@ def test_a_fit_recorded_before_a_setting_existed_resumes(fitted, tmp_path):
 
     out, _ = fitted
     rec = json.loads((out / "fit.json").read_text())
-    old = dict(rec, settings={k: v for k, v in rec["settings"].items() if k != "world_variation"})
+    flat = flatten(FitConfig, rec["settings"])  # as a record before the sampling blocks: flat
+    old = dict(rec, settings={k: v for k, v in flat.items() if k != "world_variation"})
     (tmp_path / "fit.json").write_text(json.dumps(old))
     check_out(tmp_path, rec, resume=True)  # world_variation 'ideal' then and now
-    old = dict(rec, settings={k: v for k, v in rec["settings"].items() if k != "pixel_footprint"})
+    old = dict(rec, settings={k: v for k, v in flat.items() if k != "pixel_footprint"})
     (tmp_path / "fit.json").write_text(json.dumps(old))
     with pytest.raises(NlosError, match="differs in: pixel_footprint"):
         check_out(tmp_path, rec, resume=True)  # at the pixel's centre then, a footprint now
     # a model of the recipe before the bounce: refused under today's default (the bounce), and
     # resumed with --bounce off alone (its moot settings recorded as before them)
-    old = dict(rec, settings={k: v for k, v in rec["settings"].items() if not k.startswith("bounce")})
+    old = dict(rec, settings={k: v for k, v in flat.items() if not k.startswith("bounce")})
     (tmp_path / "fit.json").write_text(json.dumps(old))
     with pytest.raises(NlosError, match="differs in: bounce.*resumes with the flags it had"):
         check_out(tmp_path, rec, resume=True)
@@ -721,7 +719,7 @@ def test_jittered_footprint_renders_each_set_of_people_with_its_own_draw(room_di
     from nlos_spotlight.data.scene_builder import SceneBuilder
     from nlos_spotlight.data.store import f16_decode
 
-    cfg = dataclasses.replace(TINY, people=10, heldout=1, footprint_jitter=True)
+    cfg = with_fields(TINY, people=10, heldout=1, footprint_jitter=True)
     data = room_dir.parent / "jittered"
     dcfg = dataset_config(cfg, room_dir)
     render_people(dcfg, data, 1, progress=False)
@@ -753,7 +751,7 @@ def test_bounce_is_stored_and_trained_on(fitted, room_dir, tmp_path):
     from nlos_spotlight.train.imaging import form_parts
 
     src, report = fitted
-    cfg = dataclasses.replace(TINY, bounce=True, bounce_body_samples=32)  # under the body's 64: resampled
+    cfg = with_fields(TINY, bounce=True, bounce_body_samples=32)  # under the body's 64: resampled
     out = tmp_path / "bounce"
     fit_room(str(room_dir), out, cfg, {}, progress=False, people_from=src)
     got = load_block_light(out, cfg)
@@ -761,7 +759,7 @@ def test_bounce_is_stored_and_trained_on(fitted, room_dir, tmp_path):
     dcfg = dataclasses.replace(dataset_config(cfg, out / "room"), room=str((out / "room").resolve()))
     k = int(np.argmax(got["nlos_bounce"].reshape(len(got["nlos_bounce"]), -1).sum(1)))
     idx = [cfg.transport_people + k]
-    settings = dcfg.render_settings(shadow_samples=cfg.shadow_samples, bounce_body_samples=cfg.bounce_body_samples)
+    settings = dcfg.render_settings(**dataclasses.asdict(cfg.shadow))
     builder = SceneBuilder(dcfg, plan(dcfg)[0], out / "data")
     again = builder.rerender(idx, settings, np.asarray(report["spot"]["aim"]), ("nlos_bounce",),
                              relay_offsets(idx, cfg))["nlos_bounce"][0]
@@ -824,7 +822,7 @@ def test_another_shadow_depth_renders_the_shadow_again_and_keeps_the_rest(fitted
     out = tmp_path / "depth"
     shutil.copytree(src, out)
     monkeypatch.setattr(shadow, "BLOCK", 10)  # several blocks, in this process
-    d4 = dataclasses.replace(TINY, bounce=True, bounce_body_samples=32, shadow_depth=4, workers=1)
+    d4 = with_fields(TINY, bounce=True, bounce_body_samples=32, shadow_depth=4, workers=1)
     render_shadows(out, d4, report["spot"], progress=False)
     before = load_block_light(out, d4)
     blocks = sorted((out / "shadow").glob("block-*.npz"))
@@ -833,15 +831,14 @@ def test_another_shadow_depth_renders_the_shadow_again_and_keeps_the_rest(fitted
         assert int(z["shadow_depth"]) == 4
         old = {k: z[k] for k in z.files if k != "shadow_depth"}
     atomic_npz(blocks[0], **old)  # as written before blocks recorded their depth
-    d10 = dataclasses.replace(d4, shadow_depth=10)
+    d10 = with_fields(d4, shadow_depth=10)
     render_shadows(out, d10, report["spot"], progress=False)
     after = load_block_light(out, d10)
     np.testing.assert_array_equal(after["nlos_bounce"], before["nlos_bounce"])  # kept, not rendered again
     dcfg = dataclasses.replace(dataset_config(d10, out / "room"), room=str((out / "room").resolve()))
     k = int(np.argmax(np.abs(after["nlos_shadow"] - before["nlos_shadow"]).reshape(len(after["nlos_shadow"]), -1).sum(1)))
     idx = [d10.transport_people + k]
-    settings = dcfg.render_settings(shadow_samples=d10.shadow_samples, bounce_body_samples=d10.bounce_body_samples,
-                                    shadow_depth=10)
+    settings = dcfg.render_settings(**dataclasses.asdict(d10.shadow))
     again = SceneBuilder(dcfg, plan(dcfg)[0], out / "data").rerender(
         idx, settings, np.asarray(report["spot"]["aim"]), ("nlos_shadow", "nlos_bounce"), relay_offsets(idx, d10))
     for c in ("nlos_shadow", "nlos_bounce"):
@@ -880,7 +877,7 @@ def test_method_fits_a_baseline_on_the_same_people(fitted, room_dir, tmp_path):
     for bad in (dict(method="tancik"), dict(method="chandran", policy="oracle"),
                 dict(method="ours_task_only")):
         with pytest.raises(NlosError, match="--method"):
-            dataclasses.replace(TINY, **bad)
+            with_fields(TINY, **bad)
 
 
 NO_SPOT = dict(shadow_samples=0, bounce=False, capture_preset="ideal")
@@ -904,7 +901,7 @@ def test_method_without_a_spot_fits_under_its_light(fitted, room_dir, tmp_path, 
 
     src, spot_report = fitted
     out = tmp_path / method
-    cfg = dataclasses.replace(TINY, method=method, policy=light, **NO_SPOT)
+    cfg = with_fields(TINY, method=method, policy=light, **NO_SPOT)
     report = fit_room(str(room_dir), out, cfg, {}, progress=False, people_from=src)
     a, b = (sorted((d / "data").rglob("images/*.npz"))[0] for d in (src, out))
     assert a.stat().st_ino == b.stat().st_ino  # the spot fit's people, nothing rendered again
@@ -1000,7 +997,7 @@ def test_a_method_without_a_spot_refuses_the_spots_terms(room_dir, tmp_path, cap
     got = {}
     monkeypatch.setattr(run, "fit_room", lambda room, out, cfg, *a, **k: got.setdefault("cfg", cfg))
     assert main(["fit", str(room_dir), "--out", str(tmp_path / "ok"), "--preset", "tiny", "--method", "dlnlos"]) == 0
-    assert (got["cfg"].policy, got["cfg"].shadow_samples, got["cfg"].capture_preset) == ("ambient", 0, "ideal")
+    assert (got["cfg"].policy, got["cfg"].shadow.shadow_samples, got["cfg"].capture_preset) == ("ambient", 0, "ideal")
     monkeypatch.undo()
     q = ["--preset", "tiny", "--quiet"]
     for flags, words in ((["--method", "dlnlos", "--bounce", "on"], ("--bounce on", "--method dlnlos lights no spot")),

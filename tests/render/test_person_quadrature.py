@@ -70,7 +70,7 @@ def room_and_body(tmp_path_factory):
     """The small preset's renderer on generated room 0 (every 6th candidate) and a hands_45 body there."""
     from nlos_spotlight.scene.los import los_mesh
     from nlos_spotlight.render.surface import StaticSurfaces
-    from nlos_spotlight.render.transport import Renderer, RenderSettings
+    from nlos_spotlight.render.transport import Renderer
     from nlos_spotlight.world.body import BodyCache, posed_body, sample_body_params
     from nlos_spotlight.world.rooms import RoomConfig, generate_room, person_positions
 
@@ -80,8 +80,7 @@ def room_and_body(tmp_path_factory):
     scene = generate_room(0, RoomConfig(resolution=cfg.resolution)).scene
     surf = StaticSurfaces(scene)
     los = los_mesh(surf.mesh, surf.engine, scene.camera, cfg.los_vertices)
-    settings = RenderSettings(pixel_samples=cfg.pixel_samples, transport_pixel_samples=cfg.transport_pixel_samples,
-                              spot_samples=cfg.spot_samples, person_samples=cfg.person_samples, device="cpu")
+    settings = cfg.render_settings()
     r = Renderer(scene, settings, aim_points=los.centroids()[::6])
     rng = np.random.default_rng([0, 7])  # the benchmark's person
     xy = person_positions(scene, rng, 1)[0]
@@ -109,8 +108,8 @@ def test_person_light_within_goal_at_every_preset(room_and_body):
     change it by under 0.05% (``benchmarks/person_convergence.py``), so one room at ``small``'s
     settings stands for all."""
     _, r, body, albedo, t = room_and_body
-    assert all(p.person_quadrature == "faces" for p in PRESETS.values())
-    ns = sorted({p.person_samples for p in PRESETS.values()})
+    assert all(p.render.person_quadrature == "faces" for p in PRESETS.values())
+    ns = sorted({p.render.person_samples for p in PRESETS.values()})
     ref = light(r, body, albedo, t, 4 * max(ns), "faces")
     assert ref.norm() > 0
     errs = {}

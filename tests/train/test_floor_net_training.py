@@ -25,9 +25,9 @@ def rooms(tmp_path_factory):
     out = tmp_path_factory.mktemp("fn-data")
     cfg = DatasetConfig(name="fn", seed=5, train_scenes=2, val_scenes=1, test_scenes=0, samples_per_scene=10,
                         transport_samples_per_scene=2, trajectories_per_test_scene=0, trajectories_per_train_scene=0,
-                        resolution=12, los_vertices=40, transport_rank=8, body_faces=400, pixel_samples=1,
-                        transport_pixel_samples=1, spot_samples=4, person_samples=48, person_quadrature="mc",
-                        stored_spots_top=2)
+                        resolution=12, los_vertices=40, transport_rank=8, body_faces=400, stored_spots_top=2,
+                        render=dict(pixel_samples=1, transport_pixel_samples=1, spot_samples=4, person_samples=48,
+                                    person_quadrature="mc"))
     generate(cfg, out, progress=False)
     return out
 
