@@ -287,6 +287,8 @@ def main() -> None:
         args.out = str(ROOT / "docs/results" / ("render-throughput-shadow.csv" if args.shadow else "render-throughput.csv"))
     import torch
 
+    from nlos_spotlight.config_file import flatten
+    from nlos_spotlight.data.config import DatasetConfig
     from nlos_spotlight.scene.los import los_mesh
     from nlos_spotlight.render.surface import StaticSurfaces
 
@@ -354,8 +356,9 @@ def main() -> None:
             "machine": {"cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
                         "python": platform.python_version(), "torch": torch.__version__},
             "people_per_process": args.people, "body_samples_mean": nsamp, "spots": spots,
-            "settings": {k: getattr(dcfg, k) for k in ("resolution", "pixel_footprint", "person_samples", "body_faces",
-                                                         "spot_samples", "person_quadrature")},
+            "settings": {k: flatten(DatasetConfig, dcfg.to_dict())[k]
+                         for k in ("resolution", "pixel_footprint", "person_samples", "body_faces", "spot_samples",
+                                   "person_quadrature")},
             "paths": {k: {"numba_threading_layer": v[0] or "workqueue (the package's)", "rays": v[1], "legacy": v[2]}
                       for k, v in paths.items()},
             "measured": ("the fit's shadow step (nlos_shadow and nlos_bounce at FitConfig's shadow_samples, "

@@ -71,7 +71,7 @@ def cmd_render(args: argparse.Namespace) -> None:
     r = Renderer(scene, settings, aim_points=aim[None])
     if not r.spot_landed[0]:
         raise NlosError(f"projector: aimed at nothing (no surface along the beam toward {aim.tolist()})")
-    person = Person.from_mesh(scene.human.mesh, scene.human.albedo, settings.person_samples) \
+    person = Person.from_mesh(scene.human.mesh, scene.human.albedo, settings.person_samples, settings.person_quadrature) \
         if scene.human is not None else None
     y = r.spot_vector(0)
     result = r.render(y, person, components=comps)
@@ -240,29 +240,32 @@ def cmd_spotlight(args: argparse.Namespace) -> None:
 
 
 def cmd_fit(args: argparse.Namespace) -> None:
-    from .config_file import apply_fields, flatten
+    from .config_file import apply_fields, flatten, merged, nest
     from .fit.config import PRESETS, FitConfig
     from .fit.run import fit_room
 
     if args.preset not in PRESETS:
         raise NlosError(f"--preset: expected one of {', '.join(PRESETS)}, got {args.preset!r}")
     base = PRESETS[args.preset]
-    given = _config_file(args) if args.config else {}  # the file's fit settings; flags win over them
-    given = flatten(FitConfig, given)  # its sampling blocks by field, as the flags name them
+    where, prefix = (args.config, "fit.") if args.config else ("nlos fit", "")
+    given = nest(FitConfig, _config_file(args), where, prefix) if args.config else {}  # flags win over it
     if args.room is None:
         raise NlosError("fit: give the room (a scan or scene directory) or --config ROOM.yaml with a room")
     flags = _fit_flags(args)
-    settings = {**given, **flags}
-    if isinstance(settings.get("method"), str):
-        settings = {**_method_defaults(settings["method"], set(settings), "policy" not in settings), **settings}
-    if settings.get("shadow_samples") == 0 and "bounce" not in settings:
+    settings = merged(FitConfig, given, nest(FitConfig, flags))
+    flat = flatten(FitConfig, settings)  # what is set, by field name, as the flags name them
+    if isinstance(flat.get("method"), str):
+        implied = _method_defaults(flat["method"], set(flat), "policy" not in flat)
+        settings = merged(FitConfig, nest(FitConfig, implied), settings)
+    flat = flatten(FitConfig, settings)
+    if flat.get("shadow_samples") == 0 and "bounce" not in flat:
         settings["bounce"] = False  # the bounce goes through the shadow's relay points: none, no bounce
     bounce = settings.get("bounce", base.bounce)
     for k in ("bounce_scale", "bounce_body_samples"):
         if k in flags and not bounce:
             raise NlosError(f"--{k.replace('_', '-')} {flags[k]:g} sets the bounce, which this fit leaves out "
-                            f"(--bounce off{', or a method without a spot' if settings.get('method') not in (None, 'ours') else ''})")
-    cfg = apply_fields(base, settings, args.config or "nlos fit", "fit." if args.config else "")  # flat names nest
+                            f"(--bounce off{', or a method without a spot' if flat.get('method') not in (None, 'ours') else ''})")
+    cfg = apply_fields(base, settings, where, prefix)
     places = {k: getattr(args, k) for k in ("camera_position", "camera_look_at", "projector_position")
               if getattr(args, k) is not None}
     places = {k: _point(v, "--" + k.replace("_", "-")).tolist() for k, v in places.items()}

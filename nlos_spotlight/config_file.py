@@ -132,38 +132,58 @@ def apply_assignments(cfg, items: list[str], where: str = "--set"):
 
 
 def blocks(cls) -> dict[str, type]:
-    """The nested config blocks of dataclass ``cls``: field name -> its dataclass (e.g. ``render`` ->
-    ``ImageSampling``), read from each field's default."""
+    """The blocks of dataclass ``cls`` whose fields may also be given by their own names: those it
+    lists in ``FLAT_BLOCKS`` (the sampling blocks, ``render`` and ``shadow``; not a training
+    config's ``net`` or ``ien``), field name -> its dataclass, read from each field's default."""
+    names = getattr(cls, "FLAT_BLOCKS", ())
     out = {}
     for f in dataclasses.fields(cls):
         default = f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default
-        if dataclasses.is_dataclass(default):
+        if f.name in names and dataclasses.is_dataclass(default):
             out[f.name] = type(default)
     return out
 
 
 def nest(cls, values: dict, where: str = "config", prefix: str = "") -> dict:
-    """``values`` with every key that names a field of one of ``cls``'s blocks moved into that
-    block's mapping: a record written before the blocks (flat), or the command line's flags, read
-    as the nested config. A field given both ways is refused in one line."""
-    owner = {name: block for block, kind in blocks(cls).items() for name in (f.name for f in dataclasses.fields(kind))}
-    out = {k: (dict(v) if k in owner.values() and isinstance(v, dict) else v) for k, v in values.items()
-           if k not in owner or k in {f.name for f in dataclasses.fields(cls)}}
+    """``values`` with every key that names a field of one of ``cls``'s :func:`blocks` moved into
+    that block's mapping: a record written before the blocks (flat), or the command line's flags,
+    read as the nested config. A block given as its dataclass becomes its mapping; a block that is
+    neither, or a field given both ways, is refused in one line."""
+    own = {f.name for f in dataclasses.fields(cls)}
+    owner = {name: block for block, kind in blocks(cls).items() for name in (f.name for f in dataclasses.fields(kind))
+             if name not in own}
+    out = {}
     for k, v in values.items():
-        if k in owner and k not in out:
-            block = out.setdefault(owner[k], {})
-            if not isinstance(block, dict):  # reported as the block's own type error
-                break
-            if k in block:
-                raise NlosError(f"{where}: {prefix}{k} given twice (on its own and under {prefix}{owner[k]})")
-            block[k] = v
+        if k in owner:
+            continue
+        if k in blocks(cls) and dataclasses.is_dataclass(v) and not isinstance(v, type):
+            v = dataclasses.asdict(v)
+        out[k] = dict(v) if k in blocks(cls) and isinstance(v, dict) else v
+    for k, v in values.items():
+        if k not in owner:
+            continue
+        block = out.setdefault(owner[k], {})
+        if not isinstance(block, dict):
+            raise NlosError(f"{where}: {prefix}{owner[k]} must be a mapping of its fields, got {block!r}")
+        if k in block:
+            raise NlosError(f"{where}: {prefix}{k} given twice (on its own and under {prefix}{owner[k]})")
+        block[k] = v
+    return out
+
+
+def merged(cls, a: dict, b: dict) -> dict:
+    """Nested settings ``a`` with ``b``'s on top, block by block (the flags over a config file's)."""
+    out = {**a, **b}
+    for k in blocks(cls):
+        if isinstance(a.get(k), dict) and isinstance(b.get(k), dict):
+            out[k] = {**a[k], **b[k]}
     return out
 
 
 def with_fields(cfg, **changes):
     """``dataclasses.replace`` taking a block's fields by their own names too (``with_fields(fit,
     shadow_samples=0)`` for ``fit.shadow.shadow_samples``), the rest of each block kept."""
-    changes = nest(type(cfg), changes)
+    changes = nest(type(cfg), changes, "with_fields")
     for k in blocks(type(cfg)):
         if isinstance(changes.get(k), dict):
             changes[k] = dataclasses.replace(getattr(cfg, k), **changes[k])
@@ -181,4 +201,4 @@ def flatten(cls, values: dict) -> dict:
     return out
 
 
-__all__ = ["apply_assignments", "apply_fields", "blocks", "flatten", "load_config_file", "nest", "with_fields"]
+__all__ = ["apply_assignments", "apply_fields", "blocks", "flatten", "load_config_file", "merged", "nest", "with_fields"]

@@ -11,6 +11,7 @@ import pytest
 from nlos_spotlight.data.config import PRESETS as DATA_PRESETS
 from nlos_spotlight.data.config import load_config
 from nlos_spotlight.errors import NlosError
+from nlos_spotlight.fit.config import PRESETS as PRESETS_FIT
 from nlos_spotlight.train.config import PRESETS as TRAIN_PRESETS
 from nlos_spotlight.train.config import load_train_config
 
@@ -43,7 +44,8 @@ def test_fields_on_a_base_preset(tmp_path):
     assert (c.name, c.steps, c.lr, c.net.backbone, c.sensor) == ("mine", 50, 1.0, "resnet10-narrow", {"burst_frames": 4})
     assert c.net.background_subtract == demo.net.background_subtract and c.batch_size == demo.batch_size
     for text, match in (("steps: ten\n", "steps must be int"), ("net:\n  nope: 1\n", "unknown key 'net.nope'"),
-                        ("net: 3\n", "net must be a mapping"), ("sensor_noise: 1\n", "sensor_noise must be bool")):
+                        ("net: 3\n", "net must be a mapping"), ("sensor_noise: 1\n", "sensor_noise must be bool"),
+                        ("backbone: resnet10-narrow\n", "unknown key 'backbone'")):  # net's fields go under net
         f.write_text(text)
         with pytest.raises(NlosError, match=match):
             load_train_config(str(f))
@@ -101,8 +103,20 @@ def test_fit_config_file_is_the_flags(tmp_path, monkeypatch, capsys):
     assert main(["fit", "--config", str(tmp_path / "cfg" / "room.yaml"), "--out", str(tmp_path / "f"),
                  "--preset", "tiny", "--quiet", "--bounce-body-samples", "0"]) == 0
     assert seen[-1][1].shadow.bounce_body_samples == 0 and seen[-1][1].bounce
+    for i, block in enumerate(("{shadow: {shadow_samples: 256}, render: {person_samples: 80}}",
+                               "{shadow_samples: 256, person_samples: 80}")):  # nested, or as the flags name them
+        (tmp_path / "cfg" / "knobs.yaml").write_text("room: ../scans/room.ply\nfit: " + block + "\n")
+        assert main(["fit", "--config", str(tmp_path / "cfg" / "knobs.yaml"), "--out", str(tmp_path / f"k{i}"),
+                     "--preset", "tiny", "--quiet", "--pixel-footprint", "3"]) == 0
+        got, tiny = seen[-1][1], PRESETS_FIT["tiny"]
+        assert (got.shadow.shadow_samples, got.render.person_samples, got.render.pixel_footprint) == (256, 80, 3)
+        assert (got.shadow.shadow_depth, got.render.person_quadrature) == (tiny.shadow.shadow_depth,
+                                                                           tiny.render.person_quadrature)
     for text, match in (("camera_position: [1, 2]\n", "list of 3 numbers"), ("fit: {peeple: 3}\n", "unknown key"),
-                        ("color: red\n", "unknown key 'color'"), ("fit: 3\n", "fit must be a mapping")):
+                        ("color: red\n", "unknown key 'color'"), ("fit: 3\n", "fit must be a mapping"),
+                        ("fit: {shadow_samples: 1, shadow: {shadow_samples: 2}}\n", "fit.shadow_samples given twice"),
+                        ("fit: {render: {people: 7}}\n", "unknown key 'fit.render.people'"),
+                        ("fit: {render: {colour: 1}}\n", "unknown key 'fit.render.colour'")):
         (tmp_path / "bad.yaml").write_text("room: x.ply\n" + text)
         capsys.readouterr()
         assert main(["fit", "--config", str(tmp_path / "bad.yaml"), "--out", str(tmp_path / "d"), "--quiet"]) == 2

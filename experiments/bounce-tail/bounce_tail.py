@@ -9,7 +9,7 @@ the body stops, by Mitsuba 3 against ours (issue 35: what ``--bounce-scale`` sho
 ``cost``    the time a person of the shadow to depth 10 against 4, on a bundle's people.
 ``room``    a fitted room's held-out people from ``experiments/mitsuba-photographs`` files
             (``presence`` and ``blocked`` at depths 4 and ``--depth``, same seeds) beside ours of the
-            same people (``benchmarks/robustness.py``'s cached camera photographs and fifth bounce)
+            same people (``experiments/camera-photographs/robustness.py``'s cached camera photographs and fifth bounce)
             and the room's relay ratios -> the same table.
 
 Each entry is a least-squares gain of Mitsuba's light onto ours (zero-mean Monte Carlo noise does

@@ -27,6 +27,6 @@ $PY experiments/bounce-tail/bounce_tail.py cost --bundle out/mitsuba-bundle/copy
 # 45 min on 2 cores), then read on the camera photographs (the cached ones of experiments/mitsuba-photographs)
 $PY -m nlos_spotlight.cli fit --config benchmarks/configs/rooms/copyroom.yaml --out out/fits11/copyroom-default \
     --people 3000 --people-from out/fits10/copyroom-default --clothing camera --quiet  # the default until session 14
-$PY benchmarks/robustness.py --model copyroom:default=out/fits11/copyroom-default --people 68 --camera-draws 1 --noise-draws 5 \
+$PY experiments/camera-photographs/robustness.py --model copyroom:default=out/fits11/copyroom-default --people 68 --camera-draws 1 --noise-draws 5 \
     --bounce --photograph-bounce --shadow-depth 10 --mitsuba 32768 --mitsuba-people 68 --flag-captures 0 --magnitudes 2 \
     --cache out/robustness10 --out out/robustness12/copyroom.csv

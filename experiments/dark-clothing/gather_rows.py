@@ -1,6 +1,6 @@
 """Gather robustness runs into ``docs/results/robustness.csv``: each run's rows of one reading, renamed.
 
-``benchmarks/robustness.py`` writes one CSV a run; the issue's table is one file. Each ``--take
+``experiments/camera-photographs/robustness.py`` writes one CSV a run; the issue's table is one file. Each ``--take
 CSV:READING=NAME`` puts that run's rows of READING under NAME, replacing the file's earlier rows of
 the same room and NAME (so a rerun replaces, never duplicates).
 

@@ -10,7 +10,7 @@ PY=.venv/bin/python
 $PY -m nlos_spotlight.cli fit --config benchmarks/configs/rooms/copyroom.yaml --out out/fits11/copyroom-clothlog \
     --people 3000 --people-from out/fits11/copyroom-default --clothing camera-log --quiet
 for m in default clothlog; do
-  $PY benchmarks/robustness.py --model copyroom:$m=out/fits11/copyroom-$m --people 68 --camera-draws 1 --noise-draws 5 \
+  $PY experiments/camera-photographs/robustness.py --model copyroom:$m=out/fits11/copyroom-$m --people 68 --camera-draws 1 --noise-draws 5 \
       --bounce --photograph-bounce --shadow-depth 10 --mitsuba 32768 --mitsuba-people 68 --flag-captures 0 --magnitudes 2 \
       --cache out/robustness10 --out out/robustness12/copyroom-$m.csv
 done
@@ -24,15 +24,15 @@ for ROOM in livingroom:icl_livingroom2 office:icl_office2; do
   NAME=${ROOM%%:*}; SCAN=${ROOM#*:}
   $PY -m nlos_spotlight.cli fit --config benchmarks/configs/rooms/$SCAN.yaml --out out/fits14/$NAME-clothlog \
       --people 1500 --people-from out/fits13/$NAME-default --clothing camera-log --quiet
-  $PY benchmarks/robustness.py --model $NAME:clothlog=out/fits14/$NAME-clothlog --people 100 --camera-draws 1 \
+  $PY experiments/camera-photographs/robustness.py --model $NAME:clothlog=out/fits14/$NAME-clothlog --people 100 --camera-draws 1 \
       --noise-draws 5 --bounce --photograph-bounce --shadow-depth 10 --mitsuba 0 --flag-captures 0 \
       --magnitudes 0.5,1,2 --cache out/robustness13 --out out/robustness14/$NAME-clothlog.csv
 done
-$PY benchmarks/robustness.py --model copyroom:default=out/fits11/copyroom-default \
+$PY experiments/camera-photographs/robustness.py --model copyroom:default=out/fits11/copyroom-default \
     --model copyroom:before=out/fits10/copyroom-default --people 100 --camera-draws 1 --noise-draws 5 --bounce \
     --photograph-bounce --shadow-depth 10 --mitsuba 0 --flag-captures 0 --magnitudes 0.5,1,2 \
     --cache out/robustness10 --out out/robustness14/copyroom.csv
-$PY benchmarks/robustness.py --model copyroom:clothlog=out/fits11/copyroom-clothlog --people 100 --camera-draws 1 \
+$PY experiments/camera-photographs/robustness.py --model copyroom:clothlog=out/fits11/copyroom-clothlog --people 100 --camera-draws 1 \
     --noise-draws 5 --bounce --photograph-bounce --shadow-depth 10 --mitsuba 0 --flag-captures 0 \
     --magnitudes 0.5,1,2 --cache out/robustness10 --out out/robustness14/copyroom-clothlog.csv
 $PY experiments/dark-clothing/gather_rows.py --take out/robustness14/copyroom.csv:default=shadow10-uniform \

@@ -5,7 +5,7 @@ that can run on different machines:
             people's meshes and albedos -> ``BUNDLE/`` (``room/``, an nlos-scene/1 directory, and
             ``people.npz``).
 ``render``  (a GPU when there is one; only Mitsuba, trimesh and the package needed): each person as
-            ``benchmarks/robustness.py``'s ``mitsuba`` condition renders it (the room with the person
+            ``experiments/camera-photographs/robustness.py``'s ``mitsuba`` condition renders it (the room with the person
             minus without, same seeds, the particle tracer at ``PHOTOGRAPH_DEPTH`` bounces; two halves at
             other seeds give the Monte Carlo noise), until a deadline -> one ``.npz`` rewritten after
             every person. ``--spp 0`` measures the first person and picks the samples that fit
@@ -13,7 +13,7 @@ that can run on different machines:
 ``compare`` Mitsuba's photographs beside ours of the same people (``robustness.py``'s cached
             camera photographs and fifth bounce): the gain that best maps ours onto Mitsuba's and
             what is left, with the fifth bounce scaled by 0, 1 and ``BOUNCE_TAIL`` -> a text table.
-``unpack``  the rendered people into ``benchmarks/robustness.py``'s cache
+``unpack``  the rendered people into ``experiments/camera-photographs/robustness.py``'s cache
             (``CACHE/ROOM/mitsuba-d6-sppSPP/NNNNN.npz``): ``robustness.py --mitsuba SPP`` reads them.
 """
 

@@ -19,7 +19,7 @@ $PY experiments/mitsuba-photographs/mitsuba_photographs.py render --bundle out/m
     --spp 32768 --people 68 --out out/copyroom-mitsuba-d6-spp32768.npz
 $PY experiments/mitsuba-photographs/mitsuba_photographs.py unpack --model $MODEL --room copyroom \
     --photographs docs/results/mitsuba-photographs/copyroom-d6-spp32768.npz --cache out/robustness10
-$PY benchmarks/robustness.py --model copyroom:default=$MODEL --people 68 --camera-draws 1 --noise-draws 5 \
+$PY experiments/camera-photographs/robustness.py --model copyroom:default=$MODEL --people 68 --camera-draws 1 --noise-draws 5 \
     --bounce --photograph-bounce --mitsuba 32768 --mitsuba-people 68 --flag-captures 0 --magnitudes 2 \
     --cache out/robustness10 --out out/robustness10/copyroom-mitsuba.csv
 # Mitsuba's photographs beside ours of the same people (robustness.py's cached camera photographs and bounce)

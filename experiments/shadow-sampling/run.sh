@@ -8,6 +8,6 @@ PY=.venv/bin/python
 
 $PY -m nlos_spotlight.cli fit --config benchmarks/configs/rooms/copyroom.yaml --out out/fits12/copyroom-fast --people 3000 \
     --people-from out/fits11/copyroom-default --shadow-samples 2048 --bounce-body-samples 256 --quiet
-$PY benchmarks/robustness.py --model copyroom:fast=out/fits12/copyroom-fast --people 68 --camera-draws 1 --noise-draws 5 \
+$PY experiments/camera-photographs/robustness.py --model copyroom:fast=out/fits12/copyroom-fast --people 68 --camera-draws 1 --noise-draws 5 \
     --bounce --photograph-bounce --shadow-depth 10 --mitsuba 32768 --mitsuba-people 68 --flag-captures 0 --magnitudes 2 \
     --cache out/robustness10 --out out/robustness12/copyroom-fast.csv

@@ -10,7 +10,7 @@ for ROOM in livingroom:icl_livingroom2 office:icl_office2; do
   NAME=${ROOM%%:*}; SCAN=${ROOM#*:}
   $PY -m nlos_spotlight.cli fit --config benchmarks/configs/rooms/$SCAN.yaml --out out/fits13/$NAME-default \
       --people 1500 --clothing camera --quiet  # uniform clothing: the default until session 14
-  $PY benchmarks/robustness.py --model $NAME:default=out/fits13/$NAME-default --people 100 --camera-draws 1 \
+  $PY experiments/camera-photographs/robustness.py --model $NAME:default=out/fits13/$NAME-default --people 100 --camera-draws 1 \
       --noise-draws 5 --bounce --photograph-bounce --shadow-depth 10 --mitsuba 0 --flag-captures 0 \
       --magnitudes 0.5,1,2 --cache out/robustness13 --out out/robustness13/$NAME.csv
 done

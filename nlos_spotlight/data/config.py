@@ -58,12 +58,18 @@ class DatasetConfig:
     a user's room; its people differ per scene), relative to the dataset directory unless absolute;
     empty: procedural rooms."""
 
+    FLAT_BLOCKS = ("render",)
+    """Blocks whose fields a YAML file, a flag or an older (flat) record may give by their own names
+    (``config_file.nest``)."""
+
     def __post_init__(self) -> None:
         if isinstance(self.render, dict):  # a record's mapping of the block's fields, over the default
             try:
                 self.render = dataclasses.replace(DATASET_SAMPLING, **self.render)
             except (TypeError, ValueError) as exc:
                 raise NlosError(f"config: render: {exc}") from None
+        if not isinstance(self.render, ImageSampling):
+            raise NlosError(f"config: render must be a mapping of ImageSampling fields, got {self.render!r}")
 
     @property
     def num_scenes(self) -> int:
@@ -146,8 +152,9 @@ PRESETS = {
     "paper": DatasetConfig(name="paper", train_scenes=300, val_scenes=30, test_scenes=60, samples_per_scene=120,
                            trajectories_per_test_scene=4, trajectories_per_train_scene=1, trajectory_frames=60,
                            resolution=64, los_vertices=800,
-                           transport_rank=96, render=ImageSampling(pixel_samples=4, transport_pixel_samples=2,
-                                                                   spot_samples=32, person_samples=4000)),
+                           transport_rank=96, render=dataclasses.replace(DATASET_SAMPLING, pixel_samples=4,
+                                                                         transport_pixel_samples=2, spot_samples=32,
+                                                                         person_samples=4000)),
 }
 
 

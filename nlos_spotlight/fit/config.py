@@ -16,7 +16,7 @@ POLICIES = ("oracle", "ien", "adaptive", "center", "random")
 
 
 FIT_SAMPLING = ImageSampling(pixel_samples=2, transport_pixel_samples=1, spot_samples=16, person_samples=1500,
-                             pixel_footprint=8)
+                             person_quadrature="faces", pixel_footprint=8)
 """A fit's people are sampled as a dataset's (``render.settings.DATASET_SAMPLING``) but with 1,500
 body points (the face rule at 1,500 faces: under 0.5% error) and each pixel's footprint at 8 x 8."""
 
@@ -76,11 +76,11 @@ class FitConfig:
     the dataset's sampling of the per-scene terms and the spot, 1,500 body points (the face rule at
     1,500 faces: under 0.5% error), and ``pixel_footprint`` 8: the person's light integrated over
     each pixel as a camera does, n x n sub-samples sharing out the body samples (0: at the pixel's
-    centre, the recipe before it, which room models learned as a pattern: benchmarks/robustness.py).
+    centre, the recipe before it, which room models learned as a pattern: experiments/camera-photographs/robustness.py).
     ``footprint_jitter`` puts the footprint's sub-samples anywhere in their cells, a draw per set of
     people (``data.config.footprint_draw``; the shadow's relay sets use the same sets), instead of at
     the cells' centres: the centres' footprint mean is biased (about 7% at 8 x 8 in the copy room,
-    falling as 1/n) and one fixed pattern for every person (benchmarks/robustness.py)."""
+    falling as 1/n) and one fixed pattern for every person (experiments/camera-photographs/robustness.py)."""
     shadow: ShadowSampling = field(default_factory=lambda: dataclasses.replace(FIT_SHADOW))
     """How the light each body stops and bounces is sampled (``render.settings.ShadowSampling``,
     :data:`FIT_SHADOW`): ``shadow_samples`` static points relaying the spot light each person's body
@@ -92,7 +92,7 @@ class FitConfig:
     the room relaying the spot onto the body and the body's light to the camera; 24% of the
     person's light in the copy room), rendered in the shadow step through its relay points and
     added to every training photograph. Every photograph holds it: room models trained without it
-    read photographs with it 33 points worse in the copy room (benchmarks/robustness.py, ``bounce``
+    read photographs with it 33 points worse in the copy room (experiments/camera-photographs/robustness.py, ``bounce``
     rows); off is the recipe before it."""
     bounce_scale: float = 1.9
     """What training multiplies the stored ``nlos_bounce`` by (with ``bounce``; moot without, and
@@ -143,6 +143,10 @@ class FitConfig:
     project_nuisance: bool = True
     """Under a capture variation, project its directions out of every photograph (``models.nuisance``)
     before the network reads it (False: the network alone learns to ignore the drift)."""
+
+    FLAT_BLOCKS = ("render", "shadow")
+    """Blocks whose fields a YAML file, a flag or an older (flat) ``fit.json`` may give by their own
+    names (``config_file.nest``)."""
 
     def __post_init__(self) -> None:
         self._blocks()

@@ -3,7 +3,7 @@
 A photograph with the person minus one without holds, besides the light the body scatters
 (``nlos``), the light it stops on the way to and from the static surfaces that relay the spot
 (``nlos_shadow``, ``render/shadow.py``): in the copy room a median 38% of the scattered light, in
-the living room more than all of it (benchmarks/robustness.py). It depends on the spot, so it is
+the living room more than all of it (experiments/camera-photographs/robustness.py). It depends on the spot, so it is
 rendered once the spot is chosen, for the image samples only, by ``workers`` processes in blocks
 of :data:`BLOCK` people (``ROOM_MODEL/shadow/block-NNNNN.npz``, written atomically: a rerun renders
 only the missing blocks), with the same pixel footprint as the people's light. Training adds it to
@@ -14,7 +14,7 @@ under the chosen spot (``nlos``, ``nlos_ambient``, ``nlos_shadow``) in a world t
 the scan by a drawn calibration error (``world.mismatch``: camera pose, projector aim, albedo,
 scan geometry), one world per relay set of a block (:data:`RELAY_SETS` worlds a block, each built
 once), and training reads these instead of the dataset's light: the room model learns what
-survives the calibration error, not the scan's exact pixels (benchmarks/robustness.py, world rows).
+survives the calibration error, not the scan's exact pixels (experiments/camera-photographs/robustness.py, world rows).
 """
 
 from __future__ import annotations

@@ -30,9 +30,10 @@ class ImageSampling:
     """Projector rays per candidate spot (equal solid angle)."""
     person_samples: int = 512
     """Area samples on the body."""
-    person_quadrature: str = "faces"
-    """Body sampling rule: 'faces' (per-face centroid rule, at least one sample a face) or 'mc'
-    (``render/person.py``); read where the body becomes a ``Person``."""
+    person_quadrature: str = "mc"
+    """Body sampling rule: 'faces' (per-face centroid rule, at least one sample a face: datasets'
+    and fits') or 'mc' (``Person.from_mesh``'s default, ``render/person.py``); read where the body
+    becomes a ``Person``."""
 
 
 @dataclass
@@ -84,7 +85,8 @@ class RenderSettings(ImageSampling, ShadowSampling):
         return cls(**{**blocks, **execution})
 
 
-DATASET_SAMPLING = ImageSampling(pixel_samples=2, transport_pixel_samples=1, spot_samples=16, person_samples=3500)
+DATASET_SAMPLING = ImageSampling(pixel_samples=2, transport_pixel_samples=1, spot_samples=16, person_samples=3500,
+                                 person_quadrature="faces")
 """A dataset's sampling unless its config says otherwise: per-scene terms at 2 x 2 and the person's
 at one sub-sample a pixel (the per-person cost), 16 projector rays a spot, 3,500 body samples (the
 faces rule on 1,500 faces: under 0.5% from converged, ``benchmarks/person_convergence.py``)."""

@@ -48,7 +48,7 @@ Magnitudes (1-sigma; ``docs/your-room.md``, "Stability budget", gives the source
 
 The scan-versus-world fields (``pose_deg`` ...) describe how the world differs from the scan the
 room model believes; they change what is rendered, not the capture, and are drawn by the
-robustness benchmark (``benchmarks/robustness.py``) once per world. A scan's geometry error has
+robustness benchmark (``experiments/camera-photographs/robustness.py``) once per world. A scan's geometry error has
 two parts (``tripod``):
 
   - ``warp_m`` 1 cm: a smooth deformation, correlated over :data:`WARP_LENGTH_M` (tracking drift,

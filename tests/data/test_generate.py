@@ -91,6 +91,25 @@ def test_other_config_refused(micro_config, reference):
         generate(other, out, progress=False)
 
 
+def test_a_dataset_recorded_flat_resumes_under_the_same_config(micro_config, reference, tmp_path):
+    """A dataset made before the ``render`` block recorded its sampling flat in ``config.json``: the
+    same config continues it (nothing rendered again, the same content) and another is refused."""
+    from nlos_spotlight.config_file import flatten, with_fields
+
+    out, manifest = reference
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    flat = flatten(DatasetConfig, json.loads((copy / "config.json").read_text()))
+    assert "render" not in flat and flat["person_samples"] == micro_config["render"]["person_samples"]
+    (copy / "config.json").write_text(json.dumps(flat))
+    (copy / "manifest.json").unlink()  # as if the run had stopped before its manifest
+    generate(DatasetConfig(**micro_config), copy, progress=False)
+    assert json.loads((copy / "manifest.json").read_text())["content_sha256"] == manifest["content_sha256"]
+    other = with_fields(DatasetConfig(**micro_config), person_samples=49)
+    with pytest.raises(NlosError, match="another config \\(differs in: person_samples\\)"):
+        generate(other, copy, progress=False)
+
+
 def test_corruption_detected(reference, tmp_path):
     out, manifest = reference
     copy = tmp_path / "copy"

@@ -484,7 +484,10 @@ def test_shadow_step_stores_each_persons_blocked_light(fitted):
     assert meta["face"] == report["spot"]["face"] and meta["shadow_samples"] == TINY.shadow.shadow_samples
     dcfg = dataclasses.replace(dataset_config(TINY, out / "room"), room=str((out / "room").resolve()))
     k = int(np.argmin(sh.reshape(len(sh), -1).sum(1)))  # the person who blocks the most
-    settings = RenderSettings.of(dcfg.render, TINY.shadow, device="cpu")
+    settings = RenderSettings(pixel_samples=TINY.render.pixel_samples, pixel_footprint=TINY.render.pixel_footprint,
+                              spot_samples=TINY.render.spot_samples, person_samples=TINY.render.person_samples,
+                              shadow_samples=TINY.shadow.shadow_samples, shadow_depth=TINY.shadow.shadow_depth,
+                              device="cpu")
     idx = [TINY.transport_people + k]
     offsets = relay_offsets(idx, TINY)  # each person's own relay points
     assert meta["shadow_relay"] == "per-person" and offsets is not None
@@ -553,7 +556,10 @@ def test_world_variation_trains_on_each_person_in_a_drawn_world(fitted, tmp_path
     assert set(got) == {*WORLD_COMPONENTS, "nlos_bounce"} and all(len(v) == len(first) for v in got.values())
     dcfg = dataclasses.replace(dataset_config(TINY, dest / "room"), room=str((dest / "room").resolve()))
     builder = SceneBuilder(dcfg, plan(dcfg)[0], dest / "data")
-    settings = RenderSettings.of(dcfg.render, TINY.shadow, device="cpu")
+    settings = RenderSettings(pixel_samples=TINY.render.pixel_samples, pixel_footprint=TINY.render.pixel_footprint,
+                              spot_samples=TINY.render.spot_samples, person_samples=TINY.render.person_samples,
+                              shadow_samples=TINY.shadow.shadow_samples, shadow_depth=TINY.shadow.shadow_depth,
+                              device="cpu")
     i = 3
     k = first[i]
     world, world_aim, drawn = mismatched_world(builder.room_scene(), aim, preset("tripod").world_effects,
@@ -583,7 +589,10 @@ def test_a_fit_recorded_before_a_setting_existed_resumes(fitted, tmp_path):
 
     out, _ = fitted
     rec = json.loads((out / "fit.json").read_text())
-    flat = flatten(FitConfig, rec["settings"])  # as a record before the sampling blocks: flat
+    # as a record before the sampling blocks: flat, without the dataset's sampling it did not record
+    flat = {k: v for k, v in flatten(FitConfig, rec["settings"]).items()
+            if k not in ("pixel_samples", "transport_pixel_samples", "spot_samples")}
+    assert FitConfig.from_record(flat) == FitConfig.from_record(rec["settings"])
     old = dict(rec, settings={k: v for k, v in flat.items() if k != "world_variation"})
     (tmp_path / "fit.json").write_text(json.dumps(old))
     check_out(tmp_path, rec, resume=True)  # world_variation 'ideal' then and now
@@ -878,6 +887,8 @@ def test_method_fits_a_baseline_on_the_same_people(fitted, room_dir, tmp_path):
                 dict(method="ours_task_only")):
         with pytest.raises(NlosError, match="--method"):
             with_fields(TINY, **bad)
+    with pytest.raises(NlosError, match="not 'floor_net' \\(FloorNet is the method for rooms nobody fitted"):
+        with_fields(TINY, method="floor_net")  # refused with its reason
 
 
 NO_SPOT = dict(shadow_samples=0, bounce=False, capture_preset="ideal")

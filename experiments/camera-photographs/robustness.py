@@ -51,12 +51,12 @@ draws for every condition:
 * ``all``: every capture effect at 1x ``tripod`` on the camera photographs.
 
 The people are rendered again once per room (``--cache``, resumable, atomic) and shared by the
-readings. ``python benchmarks/robustness.py --table CSV`` prints the summary table and the goals'
+readings. ``python experiments/camera-photographs/robustness.py --table CSV`` prints the summary table and the goals'
 verdicts; ``--merge OUT.csv A.csv B.csv ...`` joins per-room runs. Writes ``--out`` (CSV: room, reading, condition, magnitude, posture_accuracy,
 posture3_accuracy, error_cm, people), ``*-flags.csv`` (how often ``nlos predict``'s drift flag is
 right, :func:`flag_rates`) and a JSON of the run's settings and versions beside it.
 
-    python benchmarks/robustness.py --model copyroom:before=out/fits/copyroom-before \\
+    python experiments/camera-photographs/robustness.py --model copyroom:before=out/fits/copyroom-before \\
         --model copyroom:tripod=out/fits/copyroom --out docs/results/robustness.csv
 """
 
