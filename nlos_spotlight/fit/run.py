@@ -107,9 +107,10 @@ def die_with_parent() -> None:
         pass
 
 
-def _part(dcfg, data: str, i: int, n: int, device: str = "cpu") -> None:
-    """One rendering process: its share of the image samples (after part 0 stored the spots).
-    It dies with the fit (Linux: the parent-death signal), and fails with one line, not a traceback."""
+def _part(dcfg, data: str, i: int, n: int, device: str = "cpu", peak=None) -> None:
+    """One rendering process: its share of the image samples (after part 0 stored the spots); its
+    own peak memory goes to ``peak`` (a shared value) as it ends. It dies with the fit (Linux: the
+    parent-death signal), and fails with one line, not a traceback."""
     import sys
 
     die_with_parent()  # not Linux: the wait below still notices a dead parent
@@ -127,6 +128,9 @@ def _part(dcfg, data: str, i: int, n: int, device: str = "cpu") -> None:
         print(f"error: rendering process {i}: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}",
               file=sys.stderr)
         sys.exit(2)
+    finally:
+        if peak is not None:
+            peak.value = own_peak_mb()
 
 
 def render_people(dcfg, data: Path, workers: int, progress: bool, device: str = "cpu") -> None:
@@ -141,7 +145,9 @@ def render_people(dcfg, data: Path, workers: int, progress: bool, device: str = 
     data.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(data)  # before any part writes: later, another's temporary may be in flight
     ctx = mp.get_context("spawn")
-    procs = [ctx.Process(target=_part, args=(dcfg, str(data), i, workers, device), daemon=True) for i in range(1, workers)]
+    peaks = [ctx.Value("d", 0.0) for _ in range(1, workers)]
+    procs = [ctx.Process(target=_part, args=(dcfg, str(data), i, workers, device, peaks[i - 1]), daemon=True)
+             for i in range(1, workers)]
     for p in procs:
         p.start()
     try:
@@ -153,6 +159,7 @@ def render_people(dcfg, data: Path, workers: int, progress: bool, device: str = 
     finally:
         for p in procs:
             p.join()
+        WORKER_PEAKS_MB.extend(v.value for v in peaks if v.value > 0)
     bad = [p.exitcode for p in procs if p.exitcode != 0]
     if bad:
         raise NlosError(f"{data}: a rendering process failed (exit {bad[0]}); rerun with --resume to continue")
@@ -207,20 +214,38 @@ class StepClock:
         return sum(v for k, v in self.seconds.items() if k != "total_s")
 
 
-def peak_memory_mb() -> dict:
-    """Peak resident memory, MB, of this process and of the largest process it has started and
-    waited for (the kernel keeps one maximum over all of them). Under ``nlos fit``, a fresh
-    process, that is the fit's own and its largest rendering process (None when it started none:
-    one worker, or a resumed fit whose people an earlier run rendered); called from a long-lived
-    process (a notebook, the tests) it counts that process's earlier children too. The two measure
-    what ``fit.config.WORKER_BYTES`` sets aside a process."""
+def own_peak_mb() -> float:
+    """This process's own peak resident memory, MB: the kernel's ``VmHWM`` on Linux, elsewhere
+    ``ru_maxrss``. Not ``ru_maxrss`` on Linux: a process started by fork and exec (multiprocessing's
+    ``spawn``) reads there at least its parent's size at the fork, and so does its parent's
+    ``RUSAGE_CHILDREN`` (measured: a 28 MB child of a 1.5 GB parent reads 1,553 MB there)."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except (OSError, ValueError, IndexError):
+        pass
     import resource
     import sys
 
     per_mb = 2 ** 20 if sys.platform == "darwin" else 2 ** 10  # ru_maxrss counts bytes on macOS, kB on Linux
-    mb = lambda who: resource.getrusage(who).ru_maxrss / per_mb
-    children = mb(resource.RUSAGE_CHILDREN)
-    return {"fit_process": round(mb(resource.RUSAGE_SELF)), "rendering_process": round(children) if children > 0 else None}
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / per_mb
+
+
+WORKER_PEAKS_MB: list[float] = []
+"""The own peaks (:func:`own_peak_mb`) this fit's rendering processes reported at their end (the
+people's and the shadow step's; emptied when a fit starts)."""
+
+
+def peak_memory_mb() -> dict:
+    """Peak resident memory, MB, of this process and of this fit's largest rendering process, each
+    its own (:func:`own_peak_mb`; None when the fit started none: one worker, or a resumed fit whose
+    people and shadows an earlier run rendered). Under ``nlos fit`` the first is the fit's process;
+    called from a long-lived process (a notebook, the demo, the tests) it is that process's peak.
+    The two measure what ``fit.config.WORKER_BYTES`` sets aside a process."""
+    return {"fit_process": round(own_peak_mb()),
+            "rendering_process": round(max(WORKER_PEAKS_MB)) if WORKER_PEAKS_MB else None}
 
 
 def reuse_people(source: Path, out: Path, record: dict) -> None:
@@ -272,6 +297,7 @@ def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = F
     from ..data.generate import versions
 
     out = Path(out)
+    WORKER_PEAKS_MB.clear()  # this fit's rendering processes only
     record = {"format": FORMAT, "settings": {"room": str(Path(room).resolve()), **flags, **cfg.to_dict()},
               "versions": versions()}
     from ..render.settings import resolve_device

@@ -158,6 +158,14 @@ def _render_block(out: str, cfg: dict, aim: list, block: int, indices: list[int]
     return len(indices)
 
 
+def _pool_block(*args) -> tuple[int, float]:
+    """:func:`_render_block` in a rendering process of the pool, with that process's own peak memory
+    so far (``fit.run.own_peak_mb``)."""
+    from .run import own_peak_mb
+
+    return _render_block(*args), own_peak_mb()
+
+
 BOUNCE_ADDED = {"bounce_near_field": 0.0, "bounce_body_samples": BEFORE["bounce_body_samples"]}
 """The bounce's render settings added since it was first stored, at the value blocks from before
 them were rendered with."""
@@ -172,6 +180,7 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
     from ..console import QUIET, console
     from ..data.store import atomic_json, remove_stale_temporaries
     from ..render.bounce import NEAR_FIELD
+    from .run import WORKER_PEAKS_MB
 
     out, d = Path(out), shadow_dir(out)
     sh = cfg.shadow
@@ -217,10 +226,12 @@ def render_shadows(out: Path, cfg: FitConfig, spot: dict, progress: bool = True)
             return
         with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
                                  initializer=_one_thread) as pool:
-            jobs = [pool.submit(_render_block, *args, b, idx, keep) for b, idx, keep in todo]
+            jobs = [pool.submit(_pool_block, *args, b, idx, keep) for b, idx, keep in todo]
             for job in as_completed(jobs):
                 try:
-                    bar.advance(task, job.result())
+                    n, peak = job.result()
+                    WORKER_PEAKS_MB.append(peak)
+                    bar.advance(task, n)
                 except Exception as exc:
                     for j in jobs:
                         j.cancel()

@@ -331,20 +331,34 @@ def test_error_paths(room_dir, fitted, tmp_path, capsys):
     assert not (tmp_path / "b").exists() and not (tmp_path / "c").exists()  # refused input leaves nothing
 
 
-def test_peak_memory_counts_the_largest_waited_for_child():
-    """``peak_memory_mb``: a child that holds 3 GiB (more than any other process of the suite) raises the
-    children's figure to about that; this process's figure is its kernel high-water mark."""
+def test_a_process_reads_its_own_peak_memory_not_its_parents():
+    """``own_peak_mb``: a process started by ``spawn`` from a parent holding 1 GiB reads its own
+    peak (an interpreter and the module: tens of MB), though ``ru_maxrss`` there counts the parent's
+    pages at the fork; a child that holds 3 GiB reads about that; ``peak_memory_mb`` is this
+    process's own figure and its rendering processes' largest report."""
+    import multiprocessing as mp
     import subprocess
     import sys
+    from concurrent.futures import ProcessPoolExecutor
 
-    from nlos_spotlight.fit.run import peak_memory_mb
+    from nlos_spotlight.fit import run
 
-    subprocess.run([sys.executable, "-c", "import numpy as np; a = np.ones(3 * 2 ** 27); assert a.sum() == 3 * 2 ** 27"],
-                   check=True)
-    mem = peak_memory_mb()
-    hwm = _high_water_mb()
-    assert 3072 <= mem["rendering_process"] < 3072 + 400  # the array and an interpreter with numpy
-    assert 50 < mem["fit_process"] <= hwm + 1
+    held = np.ones(2 ** 27)  # 1 GiB in this process, touched
+    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
+        small = pool.submit(run.own_peak_mb).result()
+    assert held.sum() == 2 ** 27 and 5 < small < 400, small
+    code = "import numpy as np; from nlos_spotlight.fit.run import own_peak_mb; a = np.ones(3 * 2 ** 27); print(own_peak_mb())"
+    big = float(subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout)
+    assert 3072 <= big < 3072 + 400  # the array and an interpreter with numpy
+    saved = list(run.WORKER_PEAKS_MB)
+    try:
+        run.WORKER_PEAKS_MB[:] = [small, big]
+        mem = run.peak_memory_mb()
+        assert mem["rendering_process"] == round(big) and 1024 < mem["fit_process"] <= _high_water_mb() + 1
+        run.WORKER_PEAKS_MB.clear()
+        assert run.peak_memory_mb()["rendering_process"] is None  # started none
+    finally:
+        run.WORKER_PEAKS_MB[:] = saved
 
 
 def test_auto_workers_follows_the_cores_and_the_memory():
@@ -466,7 +480,11 @@ def test_killed_fit_resumes_to_the_same_model(fitted, room_dir, tmp_path):
     fit_room(str(room_dir), dest, two, {}, resume=True, progress=False)  # in this process: ~5 s of imports less
     sha = lambda d: json.loads((d / "data" / "manifest.json").read_text())["content_sha256"]
     assert sha(dest) == sha(out)
-    assert json.loads((dest / "report.json").read_text())["heldout"] == report["heldout"]
+    resumed = json.loads((dest / "report.json").read_text())
+    assert resumed["heldout"] == report["heldout"]
+    # the resumed fit's shadow step ran in a pool of two: each reported its own peak (ru_maxrss would
+    # read at least this process's size at the fork)
+    assert 50 < resumed["peak_memory_mb"]["rendering_process"] < _high_water_mb()
 
 
 def test_shadow_step_stores_each_persons_blocked_light(fitted):
