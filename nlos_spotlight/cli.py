@@ -553,7 +553,7 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--checkpoint", help="trained run whose IEN picks the spot (--policy ien)")
     f.add_argument("--burst", type=int, help="frames averaged per capture (default 16)")
     f.add_argument("--workers", type=int, help="processes rendering people (default 0: one a core, as many as the "
-                        "memory holds at 1.5 GB each; one on a GPU)")
+                        "memory holds at 1.8 GB each; one on a GPU)")
     f.add_argument("--device", dest="render_device", choices=DEVICES,
                    help="where people are rendered (default cpu): cuda runs the pair kernels and the rays on the GPU "
                         "(nlos generate --device); training uses a GPU whenever there is one")
