@@ -261,10 +261,16 @@ def cmd_fit(args: argparse.Namespace) -> None:
     if flat.get("shadow_samples") == 0 and "bounce" not in flat:
         settings["bounce"] = False  # the bounce goes through the shadow's relay points: none, no bounce
     bounce = settings.get("bounce", base.bounce)
-    for k in ("bounce_scale", "bounce_body_samples"):
-        if k in flags and not bounce:
-            raise NlosError(f"--{k.replace('_', '-')} {flags[k]:g} sets the bounce, which this fit leaves out "
-                            f"(--bounce off{', or a method without a spot' if flat.get('method') not in (None, 'ours') else ''})")
+    shadow = flat.get("shadow_samples", base.shadow.shadow_samples)
+    given_flat = {**flatten(FitConfig, given), **flags}  # what the file or a flag says, not a default
+    why = f"{', or a method without a spot' if flat.get('method') not in (None, 'ours') else ''}"
+    for k, off, leaves in (("bounce_scale", not bounce, f"the bounce, which this fit leaves out (--bounce off{why})"),
+                           ("bounce_body_samples", not bounce, f"the bounce, which this fit leaves out (--bounce off{why})"),
+                           ("shadow_depth", not shadow, f"the shadow, which this fit leaves out (--shadow-samples 0{why})")):
+        if k in given_flat and off:
+            v = given_flat[k]
+            shown = f"{v:g}" if isinstance(v, (int, float)) and not isinstance(v, bool) else repr(v)
+            raise NlosError(f"--{k.replace('_', '-')} {shown} sets {leaves}")
     cfg = apply_fields(base, settings, where, prefix)
     places = {k: getattr(args, k) for k in ("camera_position", "camera_look_at", "projector_position")
               if getattr(args, k) is not None}

@@ -156,9 +156,13 @@ def nest(cls, values: dict, where: str = "config", prefix: str = "") -> dict:
     for k, v in values.items():
         if k in owner:
             continue
-        if k in blocks(cls) and dataclasses.is_dataclass(v) and not isinstance(v, type):
-            v = dataclasses.asdict(v)
-        out[k] = dict(v) if k in blocks(cls) and isinstance(v, dict) else v
+        if k in blocks(cls):
+            if dataclasses.is_dataclass(v) and not isinstance(v, type):
+                v = dataclasses.asdict(v)
+            if not isinstance(v, dict):  # before a flag's block can replace it unseen
+                raise NlosError(f"{where}: {prefix}{k} must be a mapping of its fields, got {v!r}")
+            v = dict(v)
+        out[k] = v
     for k, v in values.items():
         if k not in owner:
             continue

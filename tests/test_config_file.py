@@ -112,6 +112,17 @@ def test_fit_config_file_is_the_flags(tmp_path, monkeypatch, capsys):
         assert (got.shadow.shadow_samples, got.render.person_samples, got.render.pixel_footprint) == (256, 80, 3)
         assert (got.shadow.shadow_depth, got.render.person_quadrature) == (tiny.shadow.shadow_depth,
                                                                            tiny.render.person_quadrature)
+    for text, flag, match in (("fit: {render: 5}\n", ["--pixel-footprint", "2"], "fit.render must be a mapping"),
+                              ("fit: {render: }\n", ["--pixel-footprint", "2"], "fit.render must be a mapping"),
+                              ("fit: {bounce: false, bounce_scale: 3.0}\n", [], "--bounce-scale 3 sets the bounce"),
+                              ("fit: {shadow_depth: 6}\n", ["--shadow-samples", "0", "--bounce", "off"],
+                               "--shadow-depth 6 sets the shadow")):
+        (tmp_path / "bad.yaml").write_text("room: x.ply\n" + text)  # the file's settings checked as the flags
+        capsys.readouterr()
+        assert main(["fit", "--config", str(tmp_path / "bad.yaml"), "--out", str(tmp_path / "d"), "--quiet",
+                     *flag]) == 2, text
+        err = capsys.readouterr().err
+        assert err.startswith("error: ") and err.count("\n") == 1 and match in err, err
     for text, match in (("camera_position: [1, 2]\n", "list of 3 numbers"), ("fit: {peeple: 3}\n", "unknown key"),
                         ("color: red\n", "unknown key 'color'"), ("fit: 3\n", "fit must be a mapping"),
                         ("fit: {shadow_samples: 1, shadow: {shadow_samples: 2}}\n", "fit.shadow_samples given twice"),

@@ -8,9 +8,11 @@ people (its report). For each room and ``--method`` (the registry's names: ``our
 
     nlos fit TEST/scenes/test-NNNNN --preset PRESET --method METHOD --out OUT/test-NNNNN/METHOD [FIT FLAGS]
 
-in this process (resumable: a finished room is read, a started one resumed), then writes one row a
-room and method to ``OUT/rooms.csv`` (six-way and 3-way posture, error, the mean answer, minutes)
-and prints the mean over rooms with the rooms' 95% interval (``evaluate.room_fits.room_interval``).
+in this process (resumable: a finished room is read, a started one resumed; a finished one made
+with another preset or other flags is refused), then keeps one row a room and method in
+``OUT/rooms.csv`` (six-way and 3-way posture, error, the mean answer, minutes; rows of earlier runs
+into the same ``OUT`` kept) and prints the mean over rooms with the rooms' 95% interval
+(``evaluate.room_fits.room_interval``).
 The recorded rows of ``unseen_room_fit.py`` stay its own (their recipe); new per-room fits run here.
 
     python experiments/unseen-room-fit/nlos_fit_rooms.py --test out/unseen/test --rooms 0-3 --preset demo \\
@@ -20,35 +22,43 @@ The recorded rows of ``unseen_room_fit.py`` stay its own (their recipe); new per
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 from pathlib import Path
 
 import numpy as np
 
-from nlos_spotlight.data.store import atomic_csv, scene_id
+from nlos_spotlight.data.store import atomic_csv, atomic_json, scene_id
 from nlos_spotlight.errors import NlosError
 from nlos_spotlight.evaluate.room_fits import room_interval, room_range
 
-FIELDS = ("room", "method", "preset", "people", "posture_pct", "posture3_pct", "error_cm", "mean_answer_cm",
-          "minutes")
+FIELDS = ("room", "method", "preset", "fit_flags", "people", "posture_pct", "posture3_pct", "error_cm",
+          "mean_answer_cm", "minutes")
 
 
 def fit_room_model(room: Path, out: Path, method: str, preset: str, flags: list[str]) -> dict:
     """The room model's report, fitting (or resuming) it first with ``nlos fit``."""
     from nlos_spotlight.cli import main
 
+    said = out.with_name(out.name + ".asked.json")  # what this driver asked nlos fit for (beside: --out stays nlos fit's)
+    asked = {"preset": preset, "method": method, "flags": flags}
+    if said.exists() and json.loads(said.read_text()) != asked:
+        raise NlosError(f"{out}: fitted with {json.loads(said.read_text())}, not {asked}; choose another --out")
     if not (out / "report.json").exists():
+        out.parent.mkdir(parents=True, exist_ok=True)
+        atomic_json(said, asked)
         resume = ["--resume"] if (out / "fit.json").exists() else []
         code = main(["fit", str(room), "--preset", preset, "--method", method, "--out", str(out), "--quiet",
-                     *resume, *flags])
+                     *resume, *flags])  # nlos fit itself refuses a resume under other settings
         if code != 0:
             raise NlosError(f"{room.name}: nlos fit --method {method} failed (exit {code}); rerun to resume")
     return json.loads((out / "report.json").read_text())
 
 
-def row(room: str, method: str, preset: str, report: dict) -> dict:
+def row(room: str, method: str, flags: list[str], report: dict) -> dict:
     h = report["heldout"]
-    return {"room": room, "method": method, "preset": preset, "people": h["people"],
+    return {"room": room, "method": method, "preset": report["config"]["name"], "fit_flags": " ".join(flags),
+            "people": h["people"],
             "posture_pct": round(100 * h["posture_accuracy"], 2), "posture3_pct": round(100 * h["posture3_accuracy"], 2),
             "error_cm": round(h["error_cm"], 2), "mean_answer_cm": round(h["mean_answer_cm"], 2),
             "minutes": round(report["timing_s"]["total_s"] / 60, 2)}
@@ -78,16 +88,31 @@ def main() -> None:
     ap.add_argument("--preset", default="demo", help="nlos fit --preset (default demo: 600 people)")
     ap.add_argument("--out", type=Path, required=True, help="one room model a room and method, and rooms.csv")
     args, flags = ap.parse_known_args()  # the rest goes to nlos fit as it is
+    try:
+        run(args, flags)
+    except NlosError as exc:
+        raise SystemExit(f"error: {exc}") from None
+
+
+def run(args, flags: list[str]) -> None:
+    table = args.out / "rooms.csv"
     rows = []
+    if table.exists():
+        with table.open(newline="") as f:
+            rows = list(csv.DictReader(f))
+    methods = [m for m in args.methods.split(",") if m]
+    if not methods:
+        raise NlosError(f"--methods: expected names of nlos fit --method, got {args.methods!r}")
     for i in room_range(args.rooms):
         room = args.test / "scenes" / scene_id("test", i)
         if not (room / "done.json").exists():
             raise SystemExit(f"{room}: not generated (nlos generate benchmarks/configs/unseen-test.yaml "
                              f"--out {args.test} --shard {i}/40)")
-        for method in args.methods.split(","):
+        for method in methods:
             report = fit_room_model(room, args.out / room.name / method, method, args.preset, flags)
-            rows.append(row(room.name, method, args.preset, report))
-            atomic_csv(args.out / "rooms.csv", list(FIELDS), rows)
+            rows = [r for r in rows if (r["room"], r["method"]) != (room.name, method)]
+            rows.append(row(room.name, method, flags, report))
+            atomic_csv(table, list(FIELDS), rows)
             print(f"{room.name} {method}: {rows[-1]['posture_pct']}% six-way, {rows[-1]['error_cm']} cm")
     print("\n".join(summary(rows)))
 

@@ -305,8 +305,8 @@ WORKER_BYTES = 1.8e9
 """Memory :func:`auto_workers` sets aside a rendering process: the room's renderer and its people in
 flight. Measured (``report.json``'s ``peak_memory_mb``, each process's own ``VmHWM``): ``make
 demo``'s copy-room fit peaked at 1,612 MiB (1.69 GB) in its largest rendering process and 1,688
-MiB in the demo's own process (session 17; session 16's 1,450 MB read ``ru_maxrss``, which counts
-a spawned process's parent at the fork). The default's sampling (twice the relay points, four
+MiB in the demo's own process (session 17; session 16's 1,450 MB for the rendering process read
+``ru_maxrss``, which counts a spawned process's parent's peak). The default's sampling (twice the relay points, four
 times the bounce's body samples) was not measured."""
 
 

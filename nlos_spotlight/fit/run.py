@@ -145,7 +145,7 @@ def render_people(dcfg, data: Path, workers: int, progress: bool, device: str = 
     data.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(data)  # before any part writes: later, another's temporary may be in flight
     ctx = mp.get_context("spawn")
-    peaks = [ctx.Value("d", 0.0) for _ in range(1, workers)]
+    peaks = [ctx.Value("d", 0.0, lock=False) for _ in range(1, workers)]  # written once, read after join
     procs = [ctx.Process(target=_part, args=(dcfg, str(data), i, workers, device, peaks[i - 1]), daemon=True)
              for i in range(1, workers)]
     for p in procs:
@@ -215,10 +215,11 @@ class StepClock:
 
 
 def own_peak_mb() -> float:
-    """This process's own peak resident memory, MB: the kernel's ``VmHWM`` on Linux, elsewhere
-    ``ru_maxrss``. Not ``ru_maxrss`` on Linux: a process started by fork and exec (multiprocessing's
-    ``spawn``) reads there at least its parent's size at the fork, and so does its parent's
-    ``RUSAGE_CHILDREN`` (measured: a 28 MB child of a 1.5 GB parent reads 1,553 MB there)."""
+    """This process's own peak resident memory, MB (MiB): the kernel's ``VmHWM`` on Linux (since
+    :func:`reset_peak`), elsewhere ``ru_maxrss``. Not ``ru_maxrss`` on Linux: a process started by
+    fork and exec (multiprocessing's ``spawn``) reads there at least its parent's peak so far, and
+    so does its parent's ``RUSAGE_CHILDREN`` (measured: a 28 MB child of a 1.5 GB parent reads
+    1,553 MB there)."""
     try:
         with open("/proc/self/status") as f:
             for line in f:
@@ -233,16 +234,27 @@ def own_peak_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / per_mb
 
 
+def reset_peak() -> None:
+    """Start this process's ``VmHWM`` again from its present size (Linux's ``clear_refs`` 5), so
+    that a fit in a long-lived process (the demo, a notebook, a study's loop) reports its own peak;
+    where the kernel refuses, the peak stays the process's."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+    except OSError:
+        pass
+
+
 WORKER_PEAKS_MB: list[float] = []
 """The own peaks (:func:`own_peak_mb`) this fit's rendering processes reported at their end (the
 people's and the shadow step's; emptied when a fit starts)."""
 
 
 def peak_memory_mb() -> dict:
-    """Peak resident memory, MB, of this process and of this fit's largest rendering process, each
-    its own (:func:`own_peak_mb`; None when the fit started none: one worker, or a resumed fit whose
-    people and shadows an earlier run rendered). Under ``nlos fit`` the first is the fit's process;
-    called from a long-lived process (a notebook, the demo, the tests) it is that process's peak.
+    """Peak resident memory, MB, of this fit's process since the fit began (:func:`reset_peak`) and
+    of the largest rendering process it started in this run, each its own (:func:`own_peak_mb`).
+    The second is None when this run started none (one worker, or a resumed fit whose people and
+    shadows an earlier run rendered) and counts only this run's processes when a fit is resumed.
     The two measure what ``fit.config.WORKER_BYTES`` sets aside a process."""
     return {"fit_process": round(own_peak_mb()),
             "rendering_process": round(max(WORKER_PEAKS_MB)) if WORKER_PEAKS_MB else None}
@@ -298,6 +310,7 @@ def fit_room(room: str, out: Path, cfg: FitConfig, flags: dict, resume: bool = F
 
     out = Path(out)
     WORKER_PEAKS_MB.clear()  # this fit's rendering processes only
+    reset_peak()  # and this fit's own peak
     record = {"format": FORMAT, "settings": {"room": str(Path(room).resolve()), **flags, **cfg.to_dict()},
               "versions": versions()}
     from ..render.settings import resolve_device
