@@ -7,6 +7,9 @@ PY=.venv/bin/python
 HERE=experiments/unseen-room-fit
 FITS=out/unseen/room-fit-3000
 
+# the product's own fit in the first four test rooms (session 17; demo preset)
+$PY $HERE/nlos_fit_rooms.py --test out/unseen/test --rooms 0-3 --preset demo --out out/unseen/nlos-fit-demo
+
 $PY $HERE/unseen_room_fit.py --test out/unseen/test --rooms 10 --people 1200 --out out/unseen/room-fit
 # the first ten rooms (docs/results.md), and 10-11, which the transfer and the synthesis use
 for I in 0 1 2 3 4 5 6 7 8 9 10 11; do
