@@ -71,7 +71,7 @@ def cmd_render(args: argparse.Namespace) -> None:
     r = Renderer(scene, settings, aim_points=aim[None])
     if not r.spot_landed[0]:
         raise NlosError(f"projector: aimed at nothing (no surface along the beam toward {aim.tolist()})")
-    person = Person.from_mesh(scene.human.mesh, scene.human.albedo, settings.person_samples, settings.person_quadrature) \
+    person = Person.sampled(scene.human.mesh, scene.human.albedo, settings) \
         if scene.human is not None else None
     y = r.spot_vector(0)
     result = r.render(y, person, components=comps)
@@ -263,7 +263,7 @@ def cmd_fit(args: argparse.Namespace) -> None:
     bounce = settings.get("bounce", base.bounce)
     shadow = flat.get("shadow_samples", base.shadow.shadow_samples)
     given_flat = {**flatten(FitConfig, given), **flags}  # what the file or a flag says, not a default
-    why = f"{', or a method without a spot' if flat.get('method') not in (None, 'ours') else ''}"
+    why = ", or a method without a spot" if flat.get("method") not in (None, "ours") else ""
     for k, off, leaves in (("bounce_scale", not bounce, f"the bounce, which this fit leaves out (--bounce off{why})"),
                            ("bounce_body_samples", not bounce, f"the bounce, which this fit leaves out (--bounce off{why})"),
                            ("shadow_depth", not shadow, f"the shadow, which this fit leaves out (--shadow-samples 0{why})")):

@@ -131,6 +131,20 @@ def apply_assignments(cfg, items: list[str], where: str = "--set"):
     return apply_fields(cfg, values, where)
 
 
+def as_block(value, default, where: str):
+    """A config's block as its dataclass: ``value`` itself, or a mapping of its fields over
+    ``default`` (as a record writes them); anything else, or an unknown field, a one-line
+    ``NlosError`` naming ``where`` ('fit: render')."""
+    if isinstance(value, dict):
+        try:
+            return dataclasses.replace(default, **value)
+        except (TypeError, ValueError) as exc:
+            raise NlosError(f"{where}: {exc}") from None
+    if not isinstance(value, type(default)):
+        raise NlosError(f"{where} must be a mapping of {type(default).__name__} fields, got {value!r}")
+    return value
+
+
 def blocks(cls) -> dict[str, type]:
     """The blocks of dataclass ``cls`` whose fields may also be given by their own names: those it
     lists in ``FLAT_BLOCKS`` (the sampling blocks, ``render`` and ``shadow``; not a training
@@ -149,14 +163,14 @@ def nest(cls, values: dict, where: str = "config", prefix: str = "") -> dict:
     that block's mapping: a record written before the blocks (flat), or the command line's flags,
     read as the nested config. A block given as its dataclass becomes its mapping; a block that is
     neither, or a field given both ways, is refused in one line."""
-    own = {f.name for f in dataclasses.fields(cls)}
-    owner = {name: block for block, kind in blocks(cls).items() for name in (f.name for f in dataclasses.fields(kind))
+    own, kinds = {f.name for f in dataclasses.fields(cls)}, blocks(cls)
+    owner = {name: block for block, kind in kinds.items() for name in (f.name for f in dataclasses.fields(kind))
              if name not in own}
     out = {}
     for k, v in values.items():
         if k in owner:
             continue
-        if k in blocks(cls):
+        if k in kinds:
             if dataclasses.is_dataclass(v) and not isinstance(v, type):
                 v = dataclasses.asdict(v)
             if not isinstance(v, dict):  # before a flag's block can replace it unseen
@@ -205,4 +219,4 @@ def flatten(cls, values: dict) -> dict:
     return out
 
 
-__all__ = ["apply_assignments", "apply_fields", "blocks", "flatten", "load_config_file", "merged", "nest", "with_fields"]
+__all__ = ["apply_assignments", "apply_fields", "as_block", "blocks", "flatten", "load_config_file", "merged", "nest", "with_fields"]

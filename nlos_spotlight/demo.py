@@ -84,7 +84,7 @@ def render_example(out: Path, seed: int) -> None:
     t0 = time.perf_counter()
     r = Renderer(scene, settings, aim_points=SPOT_TARGET[None])
     t_pre = time.perf_counter() - t0
-    person = Person.from_mesh(scene.human.mesh, scene.human.albedo, settings.person_samples, settings.person_quadrature)
+    person = Person.sampled(scene.human.mesh, scene.human.albedo, settings)
     t0 = time.perf_counter()
     res = r.render(r.spot_vector(0), person, components=COMPONENTS)
     t_render = time.perf_counter() - t0

@@ -62,8 +62,7 @@ def main() -> None:
         sensor = SensorConfig.at(r.shape)
         for spec in seen_test_specs(cfg, p, b, scene, args.people):
             body = posed_body(spec["params"], target_faces=cfg.body_faces)
-            person = Person.from_mesh(body, spec["params"].albedo, cfg.render.person_samples,
-                                      cfg.render.person_quadrature)
+            person = Person.sampled(body, spec["params"].albedo, cfg.render)
             t = np.array([*spec["position"], scene.hidden_region.floor_z])
             for policy, s in spots.items():
                 if s[i] < 0:

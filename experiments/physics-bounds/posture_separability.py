@@ -61,7 +61,7 @@ from nlos_spotlight.world.body import POSTURES, posed_body
 def light(r: Renderer, y: torch.Tensor, params, t: np.ndarray, cfg: DatasetConfig) -> torch.Tensor:
     """(H, W, 3) the person's light (the image terms that depend on the person), radiance units."""
     body = posed_body(params, target_faces=cfg.body_faces)
-    person = Person.from_mesh(body, params.albedo, cfg.render.person_samples, cfg.render.person_quadrature)
+    person = Person.sampled(body, params.albedo, cfg.render)
     return r.render(y, person, translation=t, components=PERSON).image.double()
 
 

@@ -63,13 +63,9 @@ class DatasetConfig:
     (``config_file.nest``)."""
 
     def __post_init__(self) -> None:
-        if isinstance(self.render, dict):  # a record's mapping of the block's fields, over the default
-            try:
-                self.render = dataclasses.replace(DATASET_SAMPLING, **self.render)
-            except (TypeError, ValueError) as exc:
-                raise NlosError(f"config: render: {exc}") from None
-        if not isinstance(self.render, ImageSampling):
-            raise NlosError(f"config: render must be a mapping of ImageSampling fields, got {self.render!r}")
+        from ..config_file import as_block
+
+        self.render = as_block(self.render, DATASET_SAMPLING, "config: render")  # a record's mapping too
 
     @property
     def num_scenes(self) -> int:

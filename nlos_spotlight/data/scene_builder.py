@@ -245,8 +245,7 @@ class SceneBuilder:
 
         p = spec["params"]
         body = posed_body(p, target_faces=self.cfg.body_faces)
-        person = Person.from_mesh(body, p.albedo, self.cfg.render.person_samples,
-                                 self.cfg.render.person_quadrature)
+        person = Person.sampled(body, p.albedo, self.cfg.render)
         return body, person, np.array([spec["position"][0], spec["position"][1], floor_z])
 
     @staticmethod

@@ -108,14 +108,13 @@ def fit_method(name: str) -> Method:
     m = BY_NAME.get(name)
     if m is None or not fittable(m):
         ok = ", ".join(k for k, v in BY_NAME.items() if fittable(v))
-        why = f" ({NOT_FITTED[m.arch if m.arch == FLOOR_NET else name]})" if m is not None and \
-            (m.arch == FLOOR_NET or name in NOT_FITTED) else ""
+        why = f" ({NOT_FITTED[name]})" if name in NOT_FITTED else ""
         raise NlosError(f"--method: nlos fit fits {ok}; not {name!r}{why}")
     return m
 
 
 NOT_FITTED = {
-    FLOOR_NET: "FloorNet is the method for rooms nobody fitted: it reads posture at chance everywhere, and "
+    "floor_net": "FloorNet is the method for rooms nobody fitted: it reads posture at chance everywhere, and "
                "in rooms it trained on it only draws level with the image network in position (36.1 against "
                "35.2 cm, docs/results.md, seen rooms): a fitted room trains the image network",
     "ours_task_only": "a setting of the IEN's own training; a fit aims with --policy instead",

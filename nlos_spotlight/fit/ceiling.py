@@ -64,7 +64,7 @@ def _person(params, dcfg):
     from ..world.body import posed_body
 
     body = posed_body(params, target_faces=dcfg.body_faces)
-    return Person.from_mesh(body, params.albedo, dcfg.render.person_samples, dcfg.render.person_quadrature)
+    return Person.sampled(body, params.albedo, dcfg.render)
 
 
 def person_light(r, y, params, t: np.ndarray, dcfg, person=None) -> torch.Tensor:

@@ -230,16 +230,11 @@ class FitConfig:
 
     def _blocks(self) -> None:
         """The sampling blocks as their dataclasses (a mapping of their fields, as a record writes
-        them, over :data:`FIT_SAMPLING` / :data:`FIT_SHADOW`; an unknown field is refused in one line)."""
-        for name, kind, default in (("render", ImageSampling, FIT_SAMPLING), ("shadow", ShadowSampling, FIT_SHADOW)):
-            v = getattr(self, name)
-            if isinstance(v, dict):
-                try:
-                    setattr(self, name, dataclasses.replace(default, **v))
-                except (TypeError, ValueError) as exc:
-                    raise NlosError(f"fit: {name}: {exc}") from None
-            elif not isinstance(v, kind):
-                raise NlosError(f"fit: {name} must be a mapping of {kind.__name__} fields, got {v!r}")
+        them, over :data:`FIT_SAMPLING` / :data:`FIT_SHADOW`; ``config_file.as_block``)."""
+        from ..config_file import as_block
+
+        self.render = as_block(self.render, FIT_SAMPLING, "fit: render")
+        self.shadow = as_block(self.shadow, FIT_SHADOW, "fit: shadow")
 
     @property
     def light(self) -> str:

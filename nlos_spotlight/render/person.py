@@ -80,6 +80,12 @@ class Person:
         return cls._at(mesh, face, bary, area, albedo, _watertight(mesh))
 
     @classmethod
+    def sampled(cls, mesh: TriMesh, albedo, sampling) -> "Person":
+        """:meth:`from_mesh` at a sampling's body count and rule (``render.settings.ImageSampling``:
+        a config's ``render`` block or a ``RenderSettings``), so that neither is left behind."""
+        return cls.from_mesh(mesh, albedo, sampling.person_samples, sampling.person_quadrature)
+
+    @classmethod
     def _at(cls, mesh: TriMesh, face, bary, area, albedo, closed: bool) -> "Person":
         pos = np.einsum("ij,ijk->ik", bary, mesh.vertices[mesh.faces[face]])
         alb = np.broadcast_to(np.asarray(albedo, dtype=np.float64), (len(face), 3)).copy()

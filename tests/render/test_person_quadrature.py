@@ -60,6 +60,20 @@ def test_faces_rule_covers_every_face_by_its_weight():
     assert len(Person.from_mesh(mesh, [0.5] * 3, 1, "faces")) == len(areas)  # at least one a face
 
 
+def test_a_sampling_block_samples_the_body_by_its_count_and_rule():
+    """``Person.sampled``: a config's ``render`` block (or a ``RenderSettings``) gives the body its
+    count and its rule, as ``from_mesh`` given both."""
+    from nlos_spotlight.render.settings import ImageSampling, RenderSettings
+
+    mesh = mannequin([0.0, 0.0, 0.0], 1.75)
+    for s in (PRESETS["small"].render, ImageSampling(person_samples=300), RenderSettings(person_samples=200)):
+        p, q = Person.sampled(mesh, [0.5] * 3, s), Person.from_mesh(mesh, [0.5] * 3, s.person_samples, s.person_quadrature)
+        assert np.array_equal(p.pos, q.pos) and np.array_equal(p.area, q.area)
+    faces, mc = (Person.sampled(mesh, [0.5] * 3, ImageSampling(person_samples=300, person_quadrature=r))
+                 for r in ("faces", "mc"))
+    assert len(mc) == 300 and len(faces) >= len(mesh.faces) and not np.array_equal(faces.area, mc.area[:len(faces)])
+
+
 def test_unknown_quadrature_is_refused():
     with pytest.raises(ValueError, match="quadrature"):
         Person.from_mesh(mannequin([0.0, 0.0, 0.0], 1.75), [0.5] * 3, 10, "gauss")
