@@ -133,11 +133,12 @@ def _renderer(room_dir: str, dcfg, spots, shadow: bool, device: str = "cpu", ray
     surfaces = StaticSurfaces(scene)
     los = los_mesh(surfaces.mesh, surfaces.engine, scene.camera, dcfg.los_vertices)
     fc = FitConfig()
-    settings = dcfg.render_settings(device=device, rays=rays, shadow_samples=fc.shadow.shadow_samples)
+    settings = dcfg.render_settings(device=device, rays=rays)
     if shadow:
         from nlos_spotlight.fit.shadow import components
+        from nlos_spotlight.render.settings import RenderSettings
 
-        settings = dataclasses.replace(settings, bounce_body_samples=fc.shadow.bounce_body_samples, shadow_depth=fc.shadow.shadow_depth)
+        settings = RenderSettings.of(dcfg.render, fc.shadow, device=device, rays=rays)  # as the fit's shadow step
         r = Renderer(scene, settings, aim_points=los.centroids()[spots[:1]])
         y, comps = r.spot_vector(0), components(fc)
         return r, lambda person, tr, offset=0.25: r.render(y, person, torch.as_tensor(tr), comps, relay_offset=offset)
@@ -356,9 +357,9 @@ def main() -> None:
             "machine": {"cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
                         "python": platform.python_version(), "torch": torch.__version__},
             "people_per_process": args.people, "body_samples_mean": nsamp, "spots": spots,
-            "settings": {k: flatten(DatasetConfig, dcfg.to_dict())[k]
-                         for k in ("resolution", "pixel_footprint", "person_samples", "body_faces", "spot_samples",
-                                   "person_quadrature")},
+            "settings": {k: v for k, v in flatten(DatasetConfig, dcfg.to_dict()).items()
+                         if k in ("resolution", "pixel_footprint", "person_samples", "body_faces", "spot_samples",
+                                  "person_quadrature")},
             "paths": {k: {"numba_threading_layer": v[0] or "workqueue (the package's)", "rays": v[1], "legacy": v[2]}
                       for k, v in paths.items()},
             "measured": ("the fit's shadow step (nlos_shadow and nlos_bounce at FitConfig's shadow_samples, "
