@@ -218,8 +218,9 @@ def own_peak_mb() -> float:
     """This process's own peak resident memory, MB (MiB): the kernel's ``VmHWM`` on Linux (since
     :func:`reset_peak`), elsewhere ``ru_maxrss``. Not ``ru_maxrss`` on Linux: a process started by
     fork and exec (multiprocessing's ``spawn``) reads there at least its parent's peak so far, and
-    so does its parent's ``RUSAGE_CHILDREN`` (measured: a 28 MB child of a 1.5 GB parent reads
-    1,553 MB there)."""
+    so does its parent's ``RUSAGE_CHILDREN``
+    (``tests/fit/test_fit.py::test_a_process_reads_its_own_peak_memory_not_its_parents``: a spawned
+    child of a process holding 1 GiB reads its own peak here)."""
     try:
         with open("/proc/self/status") as f:
             for line in f:
